@@ -1,0 +1,35 @@
+#pragma once
+// Chooses a likelihood backend at run time. Host code includes only this header: the CUDA
+// implementation stays behind it, in cuda/src.
+
+#include "mfot/jcsd_grid.hpp"
+#include "mfot/likelihood.hpp"
+
+#include <memory>
+#include <string>
+
+namespace mfot {
+
+enum class LikelihoodBackend { kAuto, kCuda, kCpu, kPointToPoint };
+
+struct LikelihoodOptions {
+  LikelihoodBackend backend = LikelihoodBackend::kAuto;
+  JcsdGridOptions grid;      // JCSD backends
+  int cpu_threads = 1;       // JCSD CPU: threads across particles (>= 1)
+  int cuda_device = 0;       // CUDA: device ordinal
+};
+
+struct LikelihoodChoice {
+  std::unique_ptr<Likelihood> likelihood;  // never null
+  std::string backend;   // "jcsd-cuda", "jcsd-cpu" or "point-to-point"
+  std::string note;      // why this backend was chosen (e.g. the CUDA error text on fallback)
+};
+
+// kAuto: CUDA when built with it and a device is present, else CPU JCSD. kCuda falls back to
+// the CPU JCSD with the CUDA error in `note` when no device can be used.
+LikelihoodChoice make_likelihood(const LikelihoodOptions& options);
+
+// True when this build has CUDA support and a CUDA device is usable; `why` explains a false.
+bool cuda_available(std::string* why = nullptr);
+
+}  // namespace mfot
