@@ -29,4 +29,31 @@ struct JcsdGrid {
   bool empty() const { return values.empty(); }
 };
 
+// Instrumentation of one build: lets tests check that Algorithm 3 stays linear in n.
+struct JcsdBuildStats {
+  std::size_t points = 0;              // model points accumulated
+  std::size_t kernel_evaluations = 0;  // K_r(|s - p|) evaluations (8 per point)
+};
+
+struct ObjectModel;
+
+// Throws std::invalid_argument unless cell_size is finite and in (0, 1] m and padding_cells is in
+// [1, 16] (at least one cell so every point's cell has all eight corners inside the grid).
+void validate(const JcsdGridOptions& options);
+
+// Algorithm 3: J(c, s) += (1/n) h(c) K_r(|s - p|) over the 8 corners s of each point's cell, with
+// the triangular kernel K_r(d) = max(r - d, 0) / r (3.12). The grid spans the points' bounding
+// box padded by padding_cells on every side. O(n) in the number of points. An empty point set
+// gives an empty grid. positions and features must have the same length.
+JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
+                         std::span<const SmrFeature> features, const JcsdGridOptions& options = {},
+                         JcsdBuildStats* stats = nullptr);
+JcsdGrid build_jcsd_grid(const ObjectModel& model, const JcsdGridOptions& options = {},
+                         JcsdBuildStats* stats = nullptr);
+
+// Reference (unoptimised) evaluation of one point, equations 3.18 and 3.19: trilinear
+// interpolation of J at the 8 corners of the cell holding p_object, correlated with h.
+// Returns 0 for points whose cell is not entirely inside the grid.
+float jcsd_point_score(const JcsdGrid& grid, const Eigen::Vector3f& p_object, const SmrFeature& h);
+
 }  // namespace mfot

@@ -39,4 +39,11 @@ class Likelihood {
                         std::span<float> scores) = 0;
 };
 
+// Likelihood weights from raw particle scores, equation 3.21:
+//   p_i proportional to exp(-lambda * (1 - (s_i - s_min) / (s_max - s_min))),
+// normalised to sum 1. When s_max == s_min (no particle is better than another) the weights are
+// uniform. lambda must be finite and > 0 (std::invalid_argument otherwise); weights.size() must
+// equal scores.size(). Non-finite scores are treated as s_min.
+void likelihood_weights(std::span<const float> scores, float lambda, std::span<float> weights);
+
 }  // namespace mfot

@@ -5,16 +5,18 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <span>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace mfot {
 
 class SpatialHash {
  public:
-  // cell_size in metres; queries with max_distance <= cell_size visit 27 cells at most.
+  // cell_size in metres; queries with max_distance <= cell_size / 2 visit 8 cells at most,
+  // max_distance <= cell_size 27. Points with non-finite coordinates are never returned.
   explicit SpatialHash(float cell_size);
 
   void build(std::span<const Eigen::Vector3f> points);
@@ -28,12 +30,29 @@ class SpatialHash {
   void radius_search(const Eigen::Vector3f& q, float radius, std::vector<int>& out) const;
 
  private:
-  // implementation chosen by its author; keep it allocation-free per query
+  // Cells live in an open-addressing table (linear probing, power-of-two capacity, at most half
+  // full) so a query does a few array reads per cell and never allocates.
+  struct CellRange {
+    int begin = 0;  // [begin, end) in sorted_index_
+    int end = 0;
+  };
+  static constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
+
+  std::array<int, 3> cell_of(const Eigen::Vector3f& p) const;
+  const CellRange* find_cell(int cx, int cy, int cz) const;
+  // Calls visit(point index) for every indexed point that may lie within radius of q.
+  template <class Visit>
+  void for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const;
+
   float cell_size_;
   float inv_cell_;
-  std::vector<Eigen::Vector3f> points_;
-  std::vector<int> sorted_index_;                          // point indices grouped by cell
-  std::unordered_map<std::uint64_t, std::pair<int, int>> cells_;  // cell key -> [begin, end) in sorted_index_
+  std::vector<Eigen::Vector3f> points_;   // copy of the built points (finite ones are indexed)
+  std::vector<int> sorted_index_;         // point indices grouped by cell, increasing within a cell
+  std::vector<std::uint64_t> table_keys_; // kEmptyKey marks a free slot
+  std::vector<CellRange> table_ranges_;
+  std::vector<std::pair<std::uint64_t, int>> build_scratch_;  // (cell key, point index), reused
+  std::size_t cell_count_ = 0;
+  std::size_t table_mask_ = 0;
 };
 
 }  // namespace mfot

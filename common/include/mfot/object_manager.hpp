@@ -1,0 +1,101 @@
+#pragma once
+// The authority on objects (thesis 3.1 and 3.4): consolidates the trackers' estimates of one
+// frame, segments the scene, updates every model, creates objects from unexplained clusters and
+// retires objects that lost support.
+
+#include "mfot/individuation.hpp"
+#include "mfot/likelihood.hpp"
+#include "mfot/model_updater.hpp"
+#include "mfot/segmentation.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/types.hpp"
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace mfot {
+
+struct ObjectManagerOptions {
+  SegmentationOptions segmentation;     // tau (3.23)
+  ModelUpdateOptions model_update;      // alpha (3.4); seed is the base, each object adds its id
+  NewObjectOptions new_objects;         // when an unexplained cluster becomes an object
+  SupportLossOptions support;           // when an object without support is retired
+  SmrOptions smr;                       // colour feature of model points
+  std::size_t min_object_points = 50;   // >= 1: smaller clusters never become objects
+  std::size_t max_model_points = 1500;  // >= min_object_points: a new model is subsampled to this size
+  void validate() const;
+};
+
+// What a tracker reports for one object and frame.
+struct ObjectEstimate {
+  Pose pose;                // object -> camera
+  float confidence = 0.f;   // 0..1
+};
+
+struct ManagedObject {
+  std::int32_t id = 0;
+  ObjectModel model;            // object frame
+  Pose pose;                    // latest estimate, object -> camera
+  PoseVector velocity = PoseVector::Zero();  // last pose change per frame: dx, dy, dz, droll, dpitch, dyaw
+  float confidence = 0.f;
+  bool stale = false;           // no estimate arrived for the latest frame
+  std::int32_t version = 0;     // incremented on every model change
+  std::size_t support = 0;      // scene points segmented to it in the latest frame
+};
+
+struct ObjectManagerFrame {
+  std::vector<std::int32_t> labels;    // per scene point: object id, 0 = none
+  std::vector<std::int32_t> created;   // ids created this frame (ascending)
+  std::vector<std::int32_t> retired;   // ids retired this frame
+};
+
+// Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
+//   1. take each object's estimate (an object without one keeps its pose and is marked stale);
+//   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
+//   3. update every non-stale object's model with alpha (3.4);
+//   4. retire objects whose support stayed below the minimum for several frames;
+//   5. create objects from clusters that no object explains: at the first frame every cluster,
+//      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
+//      model is the cluster in a frame at its centroid, axis-aligned with the camera.
+// Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
+class ObjectManager {
+ public:
+  explicit ObjectManager(const ObjectManagerOptions& options = {});
+  ObjectManager(const ObjectManager&) = delete;
+  ObjectManager& operator=(const ObjectManager&) = delete;
+
+  const ObjectManagerOptions& options() const { return options_; }
+
+  // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
+  // (-1 = none); estimates: by object id, for this frame.
+  const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
+                                    const std::map<std::int32_t, ObjectEstimate>& estimates);
+
+  const std::map<std::int32_t, ManagedObject>& objects() const { return objects_; }
+  const ObjectManagerFrame& last_frame() const { return frame_; }
+  std::int64_t frames_processed() const { return frames_; }
+
+ private:
+  void create_object(const ColoredCloud& scene, std::span<const int> cluster_points);
+
+  ObjectManagerOptions options_;
+  Segmenter segmenter_;
+  NewObjectDetector detector_;
+  SupportMonitor support_;
+  std::map<std::int32_t, ManagedObject> objects_;
+  std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
+  std::int32_t next_id_ = 1;
+  std::int64_t frames_ = 0;
+  ObjectManagerFrame frame_;
+  SegmentationResult segmentation_;
+  ClusterSet clusters_;
+  std::vector<SegmentationObject> seg_objects_;
+  std::vector<int> confirmed_;
+  ColoredCloud segment_;
+};
+
+}  // namespace mfot

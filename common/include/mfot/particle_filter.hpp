@@ -1,0 +1,105 @@
+#pragma once
+// Sampling Importance Resampling particle filter over SE(3), thesis 2.2.2 (equations 2.11 to
+// 2.15, Algorithm 1) and 3.1, with the likelihood weights of equation 3.21.
+
+#include "mfot/likelihood.hpp"
+
+#include <cstdint>
+#include <random>
+#include <span>
+#include <vector>
+
+namespace mfot {
+
+enum class ResamplingScheme {
+  kMultinomial,  // Algorithm 1: N independent uniform draws, binary search in the CDF
+  kSystematic,   // one uniform offset, N evenly spaced draws: same expectation, lower variance
+};
+
+struct ParticleFilterOptions {
+  int num_particles = 200;  // [1, 1000000]; the thesis runs 100 to 200
+  // Standard deviations of C_init (2.12) over (x, y, z, roll, pitch, yaw): metres, radians; >= 0.
+  PoseVector init_sigma = (PoseVector() << 0.005f, 0.005f, 0.005f, 0.03f, 0.03f, 0.03f).finished();
+  float a = 0.25f;  // weight of dX dX^T in C_t = a dX dX^T + b C_init (2.14); finite, >= 0
+  float b = 1.f;    // weight of C_init in C_t (2.14); finite, >= 0
+  float lambda = 20.f;  // sharpness of the likelihood weights (3.21); in (0, 1000]
+  ResamplingScheme resampling = ResamplingScheme::kSystematic;
+  float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
+  std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
+};
+
+// Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
+// applied in the camera frame about the object's origin: R' = R_inc R with
+// R_inc = Rz(yaw) Ry(pitch) Rx(roll). Increments compose rotations, never add Euler angles.
+Eigen::Quaternionf rotation_from_rpy(const Eigen::Vector3f& rpy);
+Eigen::Vector3f rpy_from_rotation(const Eigen::Quaternionf& rotation);  // roll, yaw in [-pi, pi], pitch in [-pi/2, pi/2]
+// dX = X_to - X_from (2.13): translation difference and the rpy of R_to R_from^T.
+PoseVector pose_difference(const Pose& from, const Pose& to);
+// X + dX: translation added, rotation composed on the left (inverse of pose_difference).
+Pose apply_increment(const Pose& pose, const PoseVector& increment);
+
+// SIR particle filter tracking one object's pose (thesis 2.2.2, 3.1). Steps of step():
+//  1. resample from the previous step's weights (multinomial per Algorithm 1, or systematic);
+//  2. diffuse every drawn state with N(0, C_t), C_t = a dX dX^T + b C_init (2.14), sampled as
+//     sqrt(a) dX n0 + sqrt(b) sigma_init .* n with n0 ~ N(0, 1), n ~ N(0, I6);
+//  3. predict (2.15): add dX to predicted_fraction of the particles, spread evenly over the set;
+//  4. evaluate the particles with the likelihood (3.20) and weight them with 3.21;
+//  5. estimate (2.11): weighted mean translation and the weighted quaternion mean (eigenvector of
+//     the largest eigenvalue of sum w_i q_i q_i^T, sign-aligned with the previous estimate);
+//     dX = X_t - X_{t-1} (2.13).
+// The first step after reset() skips 1-3: the particles were just drawn from N(X_init, C_init)
+// (2.12). Deterministic for a given seed and call sequence; step() allocates nothing once reset()
+// has sized the buffers. Non-copyable: it owns the particle buffers and its generator.
+class ParticleFilter {
+ public:
+  // Throws std::invalid_argument naming the offending field.
+  explicit ParticleFilter(const ParticleFilterOptions& options = {});
+  ParticleFilter(const ParticleFilter&) = delete;
+  ParticleFilter& operator=(const ParticleFilter&) = delete;
+
+  // Draws the particles from N(pose, C_init) with equal weights, zero velocity (2.12). The
+  // generator is not reseeded: it continues its sequence.
+  void reset(const Pose& pose);
+  bool initialised() const { return initialised_; }
+
+  // One filter iteration (steps above); returns the new estimate. Throws std::logic_error before
+  // the first reset().
+  const Pose& step(const HypothesisData& data, Likelihood& likelihood);
+
+  const Pose& estimate() const { return estimate_; }
+  // dX of the last step (2.13), (x, y, z, roll, pitch, yaw) per frame.
+  const PoseVector& velocity() const { return velocity_; }
+  std::span<const Pose> particles() const { return particles_; }
+  std::span<const float> weights() const { return weights_; }  // normalised, sum 1
+  std::span<const float> scores() const { return scores_; }    // raw s_i of the last step
+  // 1 / sum w_i^2 of the current weights, in [1, N].
+  float effective_sample_size() const;
+  // effective_sample_size() / N in (0, 1]: the share of particles that effectively support the
+  // estimate. Near 1 when most hypotheses explain the data about as well as the best one, low when
+  // only a few do (weights from 3.21 span [exp(-lambda), 1] before normalisation).
+  float confidence() const;
+  const ParticleFilterOptions& options() const { return options_; }
+
+ private:
+  double uniform01();
+  float standard_normal();
+  void resample();
+  void diffuse_and_predict();
+  Pose weighted_mean() const;
+
+  ParticleFilterOptions options_;
+  std::mt19937_64 rng_;
+  bool has_spare_normal_ = false;
+  float spare_normal_ = 0.f;
+  bool initialised_ = false;
+  bool resample_pending_ = false;
+  std::vector<Pose> particles_;
+  std::vector<Pose> drawn_;
+  std::vector<float> weights_;
+  std::vector<float> scores_;
+  std::vector<double> cdf_;
+  Pose estimate_;
+  PoseVector velocity_ = PoseVector::Zero();
+};
+
+}  // namespace mfot

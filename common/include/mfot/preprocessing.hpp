@@ -1,0 +1,261 @@
+#pragma once
+// Frame -> scene cloud: the preprocessing of thesis chapter 4 ("the point-cloud data of a table
+// are first excluded using a plane extraction method, then ... downsampled with 5 mm sampling
+// distance using VoxelGrid filter"), plus the Euclidean clustering of section 3.1 that seeds
+// object models in non-contact scenes. Steps of Preprocessor::process:
+//   1. back-project the registered depth image (uint16 millimetres, 0 = no measurement) with the
+//      pinhole intrinsics into coloured camera-frame points (metres);
+//   2. workspace crop: keep points inside an axis-aligned box of the camera frame;
+//   3. table removal: a RANSAC plane (fixed iteration count, own seeded generator, least-squares
+//      refinement on its inliers) is kept between frames and refitted only when its inlier share
+//      drops; points more than a margin above it on the camera side survive;
+//   4. voxel downsampling (5 mm leaf): mean position and mean colour per voxel, one source pixel
+//      per voxel (the first in raster order), voxels ordered by that pixel;
+//   5. Euclidean clustering of the voxels (EuclideanClusterer: connectivity within a tolerance,
+//      size limits; clusters numbered by their first voxel).
+// After warm-up (the first frame of the largest size) nothing is allocated per frame.
+
+#include "mfot/individuation.hpp"
+#include "mfot/types.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <random>
+#include <span>
+#include <vector>
+
+namespace mfot {
+
+// Pinhole intrinsics of the registered depth/colour image, pixels.
+struct CameraIntrinsics {
+  float fx = 570.3f;
+  float fy = 570.3f;
+  float cx = 319.5f;
+  float cy = 239.5f;
+};
+
+// A registered RGB-D image: depth aligned to colour, both row-major width x height.
+struct RgbdImageView {
+  int width = 0;
+  int height = 0;
+  CameraIntrinsics intrinsics;
+  std::span<const std::uint16_t> depth_mm;  // 0 = no measurement
+  std::span<const Rgb8> color;
+};
+
+// Plane a x + b y + c z + d = 0 in the camera frame with unit normal (a, b, c) pointing to the
+// camera side, i.e. d > 0 and the signed distance n.p + d is positive above the table.
+struct TablePlane {
+  Eigen::Vector4f coefficients = Eigen::Vector4f::Zero();
+  bool valid = false;
+
+  float signed_distance(const Eigen::Vector3f& p) const {
+    return coefficients.head<3>().dot(p) + coefficients[3];
+  }
+};
+
+// The preprocessed scene of one frame; every per-point vector has the same length.
+struct SceneCloud {
+  std::vector<Eigen::Vector3f> positions;  // voxel mean, metres, camera frame
+  std::vector<Rgb8> colors;                // voxel mean colour (rounded)
+  std::vector<std::int16_t> pixel_u;       // column of the first pixel (raster order) in the voxel
+  std::vector<std::int16_t> pixel_v;       // row of that pixel
+  std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
+  int num_clusters = 0;
+  TablePlane plane;                        // the plane used for this frame (invalid: none removed)
+
+  std::size_t size() const { return positions.size(); }
+  bool empty() const { return positions.empty(); }
+  void clear();
+};
+
+// Voxel-grid downsampling with integer voxel keys in an open-addressing hash table: O(n), one
+// pass, deterministic. Voxel i is the i-th distinct voxel met in input order, so raster-ordered
+// input gives voxels ordered by their first pixel.
+class VoxelDownsampler {
+ public:
+  // leaf_size in metres, finite and in (0, 1].
+  explicit VoxelDownsampler(float leaf_size);
+  VoxelDownsampler(const VoxelDownsampler&) = delete;
+  VoxelDownsampler& operator=(const VoxelDownsampler&) = delete;
+
+  // Replaces the voxel set with the voxels of the input points (which must be finite);
+  // colours and source ids have the input's length. Returns the voxel count.
+  std::size_t downsample(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
+                         std::span<const std::uint32_t> source_ids);
+
+  float leaf_size() const { return leaf_size_; }
+  std::size_t size() const { return mean_positions_.size(); }
+  std::span<const Eigen::Vector3f> positions() const { return mean_positions_; }  // mean per voxel
+  std::span<const Rgb8> colors() const { return mean_colors_; }                    // rounded mean
+  std::span<const std::uint32_t> first_source_ids() const { return first_source_; } // of the first input point
+  std::span<const int> point_counts() const { return counts_; }
+  std::span<const int> voxel_of_input() const { return voxel_of_input_; }         // per input point
+
+  // Index of the voxel of the last downsample() containing p, or -1 (empty voxel, non-finite p).
+  int voxel_index_of(const Eigen::Vector3f& p) const;
+
+ private:
+  std::uint64_t key_of(const Eigen::Vector3f& p) const;
+  int find_or_insert(std::uint64_t key, std::uint32_t source_id);
+
+  float leaf_size_;
+  float inv_leaf_;
+  // Slots are valid when their stamp equals the current generation, so no per-frame clearing.
+  std::vector<std::uint64_t> slot_keys_;
+  std::vector<int> slot_voxels_;
+  std::vector<std::uint32_t> slot_stamps_;
+  std::uint32_t generation_ = 0;
+  std::size_t slot_mask_ = 0;
+
+  std::vector<Eigen::Vector3f> mean_positions_;
+  std::vector<Eigen::Vector3f> sums_;
+  std::vector<Eigen::Vector3i> color_sums_;
+  std::vector<Rgb8> mean_colors_;
+  std::vector<std::uint32_t> first_source_;
+  std::vector<int> counts_;
+  std::vector<int> voxel_of_input_;
+};
+
+struct PlaneFitOptions {
+  int iterations = 100;              // RANSAC hypotheses per fit, in [1, 100000]
+  int sample_points = 2048;          // points hypotheses are scored on (even stride), in [3, 1000000]
+  float inlier_distance = 0.01f;     // metres, in (0, 0.5]
+  float min_inlier_share = 0.1f;     // of all points, to accept a fit as the table, in (0, 1]
+  std::uint64_t seed = 0x7AB1E;      // of the fitter's generator
+
+  // Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
+// RANSAC plane fit: `iterations` three-point hypotheses scored on an even-stride sample, the best
+// refined by least squares (PCA) on its inliers among all points. Deterministic for a seed and a
+// call sequence.
+class PlaneFitter {
+ public:
+  explicit PlaneFitter(PlaneFitOptions options = {});
+  PlaneFitter(const PlaneFitter&) = delete;
+  PlaneFitter& operator=(const PlaneFitter&) = delete;
+
+  const PlaneFitOptions& options() const { return options_; }
+
+  // The dominant plane (normal towards the origin), invalid when fewer than min_inlier_share of
+  // the points lie within inlier_distance of the best one. inlier_share gets the fit's share.
+  TablePlane fit(std::span<const Eigen::Vector3f> points, float* inlier_share = nullptr);
+
+ private:
+  PlaneFitOptions options_;
+  std::mt19937_64 rng_;
+  std::vector<Eigen::Vector3f> sample_;
+};
+
+struct PreprocessorOptions {
+  // Workspace crop box in the camera frame, metres (min < max per axis).
+  Eigen::Vector3f crop_min{-1.5f, -1.5f, 0.3f};
+  Eigen::Vector3f crop_max{1.5f, 1.5f, 2.0f};
+
+  bool remove_plane = true;
+  PlaneFitOptions plane_fit;
+  float plane_margin = 0.01f;        // keep points with signed distance > margin, metres, in [0, 0.5]
+  // The kept plane is refitted when its inlier share falls below this fraction of the share it
+  // had when fitted (the camera or the table moved), in (0, 1].
+  float plane_keep_ratio = 0.7f;
+
+  float voxel_size = 0.005f;         // leaf, metres, in (0, 1]
+
+  bool cluster = true;
+  float cluster_tolerance = 0.015f;  // metres, in (0, 1]
+  int cluster_min_size = 30;         // voxels, in [1, cluster_max_size]
+  int cluster_max_size = 100000;     // voxels; larger clusters are rejected (-1)
+
+  // Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
+// Per-frame statistics and stage timings (steady clock, milliseconds).
+struct PreprocessStats {
+  std::size_t valid_depth = 0;    // pixels with depth
+  std::size_t cropped = 0;        // points inside the crop box
+  std::size_t above_plane = 0;    // points surviving table removal
+  std::size_t voxels = 0;
+  float plane_inlier_share = 0.f; // of the cropped points, for the plane used
+  bool plane_refitted = false;    // a RANSAC fit ran this frame
+  double backproject_ms = 0.0;    // steps 1 and 2
+  double plane_ms = 0.0;          // step 3
+  double voxel_ms = 0.0;          // step 4
+  double cluster_ms = 0.0;        // step 5
+  double total_ms = 0.0;
+};
+
+class Preprocessor {
+ public:
+  explicit Preprocessor(PreprocessorOptions options = {});
+  Preprocessor(const Preprocessor&) = delete;
+  Preprocessor& operator=(const Preprocessor&) = delete;
+
+  const PreprocessorOptions& options() const { return options_; }
+
+  // Runs steps 1-5 on one frame; the result stays valid until the next call. Throws
+  // std::invalid_argument for inconsistent image sizes or invalid intrinsics.
+  const SceneCloud& process(const RgbdImageView& image);
+
+  const SceneCloud& scene() const { return scene_; }
+  const PreprocessStats& stats() const { return stats_; }
+
+  // The table plane kept between frames (invalid before the first successful fit).
+  const TablePlane& plane() const { return plane_; }
+  // Forgets the kept plane so the next frame fits a new one.
+  void reset_plane();
+
+  // Index into scene() of the voxel that contains camera-frame point p, or -1 when that voxel is
+  // not in the scene (for dense labelling of arbitrary points).
+  int voxel_index_of(const Eigen::Vector3f& p) const;
+  // Scene index of the voxel that pixel (u, v) of the last frame fell into; -1 when the pixel had
+  // no depth or was cropped or removed as table, or lies outside the image.
+  int voxel_index_at(int u, int v) const;
+  // The same for all pixels, row-major width x height of the last frame.
+  std::span<const int> pixel_voxel_index() const { return pixel_voxel_; }
+
+ private:
+  void backproject_and_crop(const RgbdImageView& image);
+  void remove_table();
+  // Signed-distance pass with `plane`: compacts kept points into above_* and returns the share
+  // of cropped points within the inlier band.
+  float split_by_plane(const TablePlane& plane);
+  void cluster_voxels();
+
+  PreprocessorOptions options_;
+  PlaneFitter plane_fitter_;
+  VoxelDownsampler voxels_;
+  EuclideanClusterer clusterer_;
+  ClusterSet clusters_;
+  TablePlane plane_;
+  float plane_fitted_share_ = 0.f;
+
+  // Per-image ray tables (recomputed when the size or intrinsics change).
+  int ray_width_ = 0;
+  int ray_height_ = 0;
+  CameraIntrinsics ray_intrinsics_{};
+  std::vector<float> ray_x_;  // (u - cx) / fx per column
+  std::vector<float> ray_y_;  // (v - cy) / fy per row
+  int image_width_ = 0;
+
+  // Point buffers sized to the largest image seen; the first *_count_ entries are live.
+  std::vector<Eigen::Vector3f> cropped_positions_;
+  std::vector<Rgb8> cropped_colors_;
+  std::vector<std::uint32_t> cropped_pixels_;  // v * width + u
+  std::size_t cropped_count_ = 0;
+  std::vector<Eigen::Vector3f> above_positions_;
+  std::vector<Rgb8> above_colors_;
+  std::vector<std::uint32_t> above_pixels_;
+  std::size_t above_count_ = 0;
+  bool kept_all_cropped_ = false;  // no plane removed: the cropped buffers are the kept points
+
+  std::vector<int> pixel_voxel_;
+
+  SceneCloud scene_;
+  PreprocessStats stats_;
+};
+
+}  // namespace mfot

@@ -1,0 +1,89 @@
+#pragma once
+// Table-top RGB-D scene simulator with ground truth: the built-in input of mfot that lets the
+// tracker run, be tested and be measured without a camera (thesis chapter 4's experiments:
+// stacking, contact, rotation, static scene, plus a seeded random scene).
+//
+// World frame: table top is z = 0, x to the right, y away from the camera, z up. The camera looks
+// down at the table centre from 1 m away at 45 degrees (like a robot head). Boxes (faces of
+// distinct colours, some striped or checkered) and cylinders (cans) rest on the table or on each
+// other; rigid skin-coloured hands (palm + fingers box, one cylinder for forearm and upper arm)
+// reach in from the image sides, grasp objects (grasped objects move rigidly with the hand) and
+// leave again. Motion is piecewise with smooth (ease-in/ease-out) interpolation and peak speeds of
+// at most 0.3 m/s and 90 deg/s. Every frame is rendered by analytic ray casting with a Kinect-like
+// sensor model (scene.hpp) and comes with every body's pose and a label image.
+//
+// Body frames: an object's origin is its geometric centre (box / cylinder centre), axes along its
+// edges / cylinder axis; a hand's origin is its palm centre, x along the fingers, z out of the
+// back of the hand.
+
+#include "mfot/sim/scene.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace mfot::sim {
+
+struct ScenarioOptions {
+  // One of scenario_names(): "stack", "contact", "rotate", "static", "random".
+  std::string name = "stack";
+  std::uint64_t seed = 1;  // sensor noise (all scenarios) and the random scenario's layout
+  int num_frames = 0;      // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
+  // The random scenario only:
+  int num_objects = 3;     // [1, 8]
+  float speed = 0.1f;      // mean sliding speed of objects, m/s, (0, 0.2] (peak is 1.5x)
+  float occlusion = 0.3f;  // [0, 1]: share of the time hands pass over the objects (0 = no hands)
+
+  void validate() const;
+};
+
+struct SimulatorOptions {
+  ScenarioOptions scenario;
+  SensorOptions sensor;
+  CameraIntrinsics camera;
+
+  // Throws std::invalid_argument naming the offending field and its allowed range.
+  void validate() const;
+};
+
+// Static description of one body of a scenario (for consumers that want the geometry).
+struct BodyInfo {
+  int id = 0;  // label value: objects 1.., hands 101, 102
+  bool is_hand = false;
+  std::vector<Primitive> primitives;  // poses relative to the body frame, labels = id
+};
+
+class Simulator {
+ public:
+  explicit Simulator(const SimulatorOptions& options);
+  ~Simulator();
+  Simulator(Simulator&&) noexcept;
+  Simulator& operator=(Simulator&&) noexcept;
+  Simulator(const Simulator&) = delete;
+  Simulator& operator=(const Simulator&) = delete;
+
+  int num_frames() const;
+  double fps() const;  // 30
+
+  // Frame index in [0, num_frames()). Deterministic: the same options and index always give an
+  // identical frame, independent of which frames were rendered before. Thread-safe (const).
+  RenderedFrame render(int index) const;
+
+  // Ground-truth poses (body -> camera) at frame index, without rendering.
+  std::vector<GroundTruthPose> poses(int index) const;
+  // The scene of frame index in the camera frame (what render() ray casts).
+  Scene scene(int index) const;
+
+  const SimulatorOptions& options() const;
+  const std::vector<BodyInfo>& bodies() const;
+  Pose world_to_camera() const;  // maps world (table) coordinates to camera coordinates
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+std::vector<std::string> scenario_names();
+
+}  // namespace mfot::sim

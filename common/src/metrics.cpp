@@ -1,0 +1,234 @@
+#include "mfot/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+
+namespace mfot {
+
+namespace {
+
+constexpr float kSceneCell = 0.01f;  // metres: the scene index's cell, ~2 x the voxel leaf
+
+const FittingDistanceOptions& validated(const FittingDistanceOptions& options) {
+  options.validate();
+  return options;
+}
+
+}  // namespace
+
+// ---- fitting distance ------------------------------------------------------------------------
+
+void FittingDistanceOptions::validate() const {
+  if (!(occlusion_window > 0.f && occlusion_window <= 0.1f)) {
+    throw std::invalid_argument("FittingDistanceOptions.occlusion_window must be in (0, 0.1], got " + std::to_string(occlusion_window));
+  }
+  if (!(depth_margin >= 0.f && depth_margin <= 1.f)) {
+    throw std::invalid_argument("FittingDistanceOptions.depth_margin must be in [0, 1] metres, got " + std::to_string(depth_margin));
+  }
+}
+
+FittingDistanceEvaluator::FittingDistanceEvaluator(const FittingDistanceOptions& options)
+    : options_(validated(options)), scene_hash_(kSceneCell), ray_hash_(options.occlusion_window) {
+  scene_hash_.build({});
+  ray_hash_.build({});
+}
+
+void FittingDistanceEvaluator::set_scene(std::span<const Eigen::Vector3f> scene_points) {
+  scene_.assign(scene_points.begin(), scene_points.end());
+  scene_hash_.build(scene_);
+  ray_points_.clear();
+  ray_depth_.clear();
+  for (const auto& p : scene_) {
+    if (!(p.z() > 0.f)) continue;
+    ray_points_.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
+    ray_depth_.push_back(p.z());
+  }
+  ray_hash_.build(ray_points_);
+}
+
+bool FittingDistanceEvaluator::occluded(const Eigen::Vector3f& m) {
+  if (!(m.z() > 0.f)) return true;
+  neighbours_.clear();
+  ray_hash_.radius_search(Eigen::Vector3f(m.x() / m.z(), m.y() / m.z(), 0.f), options_.occlusion_window, neighbours_);
+  const float in_front = m.z() - options_.depth_margin;
+  return std::any_of(neighbours_.begin(), neighbours_.end(),
+                     [&](int i) { return ray_depth_[static_cast<std::size_t>(i)] < in_front; });
+}
+
+FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+  Pose unit = pose;
+  unit.rotation.normalize();
+  const Eigen::Isometry3f to_camera = unit.isometry();
+  FittingDistance result;
+  result.model_points = model_points.size();
+  if (model_points.empty()) return result;
+  // Growing search radii keep most queries local; the last one is unbounded.
+  constexpr float kRadii[] = {2 * kSceneCell, 8 * kSceneCell, std::numeric_limits<float>::infinity()};
+  double sum = 0.0;
+  for (const auto& p : model_points) {
+    const Eigen::Vector3f m = to_camera * p;
+    if (options_.occlusion_test && occluded(m)) {
+      ++result.occluded;
+      continue;
+    }
+    float d2 = std::numeric_limits<float>::infinity();
+    for (const float radius : kRadii) {
+      if (scene_hash_.nearest(m, radius, &d2) >= 0) break;
+    }
+    sum += std::sqrt(static_cast<double>(d2));
+  }
+  result.mean = sum / static_cast<double>(model_points.size());
+  return result;
+}
+
+// ---- segmentation accuracy -------------------------------------------------------------------
+
+void SegmentationAccuracy::add_frame(std::span<const std::int32_t> predicted, std::span<const std::int32_t> ground_truth) {
+  if (predicted.size() != ground_truth.size()) {
+    throw std::invalid_argument("SegmentationAccuracy: predicted and ground-truth labels must have one size");
+  }
+  std::map<Pair, std::uint64_t> frame;
+  for (std::size_t i = 0; i < predicted.size(); ++i) {
+    if (predicted[i] < 0 || ground_truth[i] < 0) throw std::invalid_argument("SegmentationAccuracy: labels must be >= 0");
+    ++frame[{predicted[i], ground_truth[i]}];
+  }
+  auto& pairs = frame_pairs_.emplace_back();
+  for (const auto& [pair, count] : frame) {
+    overlap_[pair] += count;
+    pairs.emplace_back(pair, count);
+  }
+  frame_points_.push_back(predicted.size());
+  total_points_ += predicted.size();
+}
+
+std::map<std::int32_t, std::int32_t> SegmentationAccuracy::mapping() const {
+  std::map<std::int32_t, std::int32_t> map;
+  std::vector<std::tuple<std::uint64_t, std::int32_t, std::int32_t>> candidates;
+  for (const auto& [pair, count] : overlap_) {
+    map.emplace(pair.first, pair.first == 0 ? 0 : kUnmatched);
+    if (pair.first != 0 && pair.second != 0) candidates.emplace_back(count, pair.first, pair.second);
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    if (std::get<0>(a) != std::get<0>(b)) return std::get<0>(a) > std::get<0>(b);
+    if (std::get<1>(a) != std::get<1>(b)) return std::get<1>(a) < std::get<1>(b);
+    return std::get<2>(a) < std::get<2>(b);
+  });
+  std::map<std::int32_t, bool> gt_taken;
+  for (const auto& [count, predicted, truth] : candidates) {
+    if (map[predicted] != kUnmatched || gt_taken[truth]) continue;
+    map[predicted] = truth;
+    gt_taken[truth] = true;
+  }
+  return map;
+}
+
+double SegmentationAccuracy::accuracy() const {
+  if (total_points_ == 0) return 1.0;
+  const auto map = mapping();
+  std::uint64_t correct = 0;
+  for (const auto& [pair, count] : overlap_) {
+    if (map.at(pair.first) == pair.second) correct += count;
+  }
+  return static_cast<double>(correct) / static_cast<double>(total_points_);
+}
+
+std::vector<double> SegmentationAccuracy::frame_accuracies() const {
+  const auto map = mapping();
+  std::vector<double> result;
+  result.reserve(frame_pairs_.size());
+  for (std::size_t f = 0; f < frame_pairs_.size(); ++f) {
+    if (frame_points_[f] == 0) {
+      result.push_back(1.0);
+      continue;
+    }
+    std::uint64_t correct = 0;
+    for (const auto& [pair, count] : frame_pairs_[f]) {
+      if (map.at(pair.first) == pair.second) correct += count;
+    }
+    result.push_back(static_cast<double>(correct) / static_cast<double>(frame_points_[f]));
+  }
+  return result;
+}
+
+// ---- relative pose error ---------------------------------------------------------------------
+
+namespace {
+
+struct Motion {
+  Eigen::Quaterniond rotation;
+  Eigen::Vector3d translation;
+};
+
+Eigen::Quaterniond unit_rotation(const Pose& pose) { return pose.rotation.cast<double>().normalized(); }
+
+// X_t X_t0^-1 with X = (R, t): rotation R_t R_t0^T, translation t_t - R_t R_t0^T t_t0.
+Motion motion_from(const Pose& first, const Pose& current) {
+  const Eigen::Quaterniond r = unit_rotation(current) * unit_rotation(first).conjugate();
+  return {r, current.translation.cast<double>() - r * first.translation.cast<double>()};
+}
+
+}  // namespace
+
+std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std::span<const Pose> ground_truth) {
+  if (predicted.size() != ground_truth.size()) {
+    throw std::invalid_argument("relative_pose_errors: predicted and ground-truth trajectories must have one size");
+  }
+  std::vector<PoseError> errors(predicted.size());
+  for (std::size_t t = 0; t < predicted.size(); ++t) {
+    const Motion p = motion_from(predicted.front(), predicted[t]);
+    const Motion g = motion_from(ground_truth.front(), ground_truth[t]);
+    const Eigen::Quaterniond delta = g.rotation.conjugate() * p.rotation;
+    // Angle from the quaternion as 2 atan2(|v|, |w|): accurate for small angles, too.
+    const double angle = 2.0 * std::atan2(delta.vec().norm(), std::abs(delta.w()));
+    errors[t].translation_mm = (p.translation - g.translation).norm() * 1000.0;
+    errors[t].rotation_deg = angle * 180.0 / std::numbers::pi;
+  }
+  return errors;
+}
+
+namespace {
+
+double median_of(std::vector<double>& values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+}  // namespace
+
+PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSummaryOptions& options) {
+  PoseErrorSummary s;
+  s.count = errors.size();
+  if (errors.empty()) return s;
+  std::vector<double> translations, rotations;
+  std::size_t over_t = 0, over_r = 0, over_either = 0;
+  for (const auto& e : errors) {
+    translations.push_back(e.translation_mm);
+    rotations.push_back(e.rotation_deg);
+    s.translation_mean_mm += e.translation_mm;
+    s.rotation_mean_deg += e.rotation_deg;
+    s.translation_max_mm = std::max(s.translation_max_mm, e.translation_mm);
+    s.rotation_max_deg = std::max(s.rotation_max_deg, e.rotation_deg);
+    const bool t_over = e.translation_mm > options.translation_threshold_mm;
+    const bool r_over = e.rotation_deg > options.rotation_threshold_deg;
+    over_t += t_over;
+    over_r += r_over;
+    over_either += t_over || r_over;
+  }
+  const auto n = static_cast<double>(errors.size());
+  s.translation_mean_mm /= n;
+  s.rotation_mean_deg /= n;
+  s.translation_median_mm = median_of(translations);
+  s.rotation_median_deg = median_of(rotations);
+  s.share_translation_over = static_cast<double>(over_t) / n;
+  s.share_rotation_over = static_cast<double>(over_r) / n;
+  s.share_either_over = static_cast<double>(over_either) / n;
+  return s;
+}
+
+}  // namespace mfot

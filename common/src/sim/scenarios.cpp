@@ -1,0 +1,408 @@
+// The simulator's scenarios (thesis chapter 4's experiments plus a seeded random scene).
+//
+// Layout conventions: world z = 0 is the table top, objects stand upright on it (centre height =
+// half height) or on each other, and every pair of objects present at frame 0 is at least 4 cm
+// apart. Hands wait outside the image at frame 0, reach in, grasp from above (palm on the top
+// face, fingers over a side face) and carry objects rigidly. Contacts are exact to 0.5 mm
+// (touching, never overlapping).
+
+#include "script.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace mfot::sim::detail {
+
+namespace {
+
+constexpr float kPi = 3.14159265f;
+
+// Distinct, saturated face colours (none close to the table's wood or to skin).
+constexpr Rgb8 kRed{200, 30, 35}, kGreen{35, 160, 60}, kBlue{35, 70, 200}, kYellow{235, 205, 35},
+    kMagenta{190, 40, 165}, kCyan{30, 175, 195}, kOrange{240, 115, 20}, kPurple{105, 50, 165},
+    kWhite{235, 235, 230}, kBlack{35, 35, 40}, kLime{150, 215, 45}, kPink{240, 140, 180}, kGrey{140, 140, 150};
+constexpr std::array<Rgb8, 13> kPalette{kRed,   kGreen, kBlue,  kYellow, kMagenta, kCyan, kOrange,
+                                        kPurple, kWhite, kBlack, kLime,   kPink,    kGrey};
+
+Iso at(float x, float y, float z, float yaw = 0.0f) {
+  Iso t = Iso::Identity();
+  t.linear() = Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  t.translation() = Eigen::Vector3f(x, y, z);
+  return t;
+}
+
+Iso raised(const Iso& pose, float dz) {
+  Iso t = pose;
+  t.translation().z() += dz;
+  return t;
+}
+
+// pose rotated by r about its own origin, r given in world axes.
+Iso turned(const Iso& pose, const Eigen::Matrix3f& r) {
+  Iso t = pose;
+  t.linear() = r * pose.linear();
+  return t;
+}
+
+Eigen::Matrix3f rot(float angle_deg, const Eigen::Vector3f& axis) {
+  return Eigen::AngleAxisf(angle_deg * kPi / 180.0f, axis).toRotationMatrix();
+}
+
+constexpr float kApproach = 0.08f;  // hover height above a grasp or placement, metres
+
+// Hand comes above the object, descends, grasps, lifts it above everything on the way, carries
+// it to target (resting pose), lowers it, releases and rises again.
+void pick_and_place(ScriptBuilder& b, const Script& bodies_of, int hand, int object, float grasp_yaw,
+                    const Iso& target, float clear_height) {
+  const BodyInfo& info = bodies_of.bodies[object].info;
+  const Iso grasp = top_grasp(info, b.pose(object), grasp_yaw);
+  b.move({{hand, raised(grasp, kApproach)}});
+  b.move({{hand, grasp}});
+  b.wait(0.3);
+  b.grasp(hand, object);
+  const float lift_z = std::max(b.pose(object).translation().z(), target.translation().z()) + clear_height;
+  Iso lifted = b.pose(object);
+  lifted.translation().z() = lift_z;
+  b.move({{hand, b.hand_target_for(hand, lifted)}});
+  Iso above = target;
+  above.translation().z() = lift_z;
+  b.move({{hand, b.hand_target_for(hand, above)}});
+  b.move({{hand, b.hand_target_for(hand, target)}});
+  b.wait(0.3);
+  b.release(hand);
+  b.move({{hand, raised(b.pose(hand), kApproach)}});
+}
+
+// ScriptBuilder keeps the bodies inside its script; a snapshot lets helpers read body geometry.
+struct Bodies {
+  Script infos;
+  int add(ScriptBuilder& b, BodyInfo info, const Iso& pose) {
+    infos.bodies.push_back({info, {}, {}});
+    return b.add_body(std::move(info), pose);
+  }
+};
+
+Script stack_scenario() {
+  ScriptBuilder b;
+  Bodies s;
+  const int top = s.add(b, make_box(1, {0.07f, 0.06f, 0.09f}, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}),
+                        at(-0.18f, 0.05f, 0.045f));
+  const int base = s.add(b,
+                         make_box(2, {0.16f, 0.12f, 0.07f}, {kOrange, kPurple, kLime, kPink, kWhite, kBlack},
+                                  Pattern::stripes, kWhite, 0.04f),
+                         at(0.10f, 0.05f, 0.035f));
+  s.add(b, make_can(3, 0.066f, 0.12f, kRed, kWhite, kGrey), at(-0.02f, 0.30f, 0.06f));
+  const Iso home = at(-0.75f, 0.05f, 0.35f);
+  const int hand = s.add(b, make_hand(101), home);
+
+  b.wait(1.0);
+  const float top_half = half_height(s.infos.bodies[top].info);
+  const Eigen::Vector3f base_centre = b.pose(base).translation();
+  const float base_top = base_centre.z() + half_height(s.infos.bodies[base].info);
+  pick_and_place(b, s.infos, hand, top, 0.0f,
+                 at(base_centre.x(), base_centre.y(), base_top + top_half, 30.0f * kPi / 180.0f), 0.06f);
+  b.move({{hand, home}});
+  b.wait(1.2);
+  pick_and_place(b, s.infos, hand, top, 0.0f, at(-0.16f, -0.04f, top_half), 0.06f);
+  b.move({{hand, home}});
+  return b.finish(0.8);
+}
+
+Script contact_scenario() {
+  ScriptBuilder b;
+  Bodies s;
+  const Eigen::Vector3f left_size(0.08f, 0.08f, 0.10f), right_size(0.10f, 0.07f, 0.08f);
+  const int left = s.add(b,
+                         make_box(1, left_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker,
+                                  kWhite, 0.04f),
+                         at(-0.20f, 0.10f, 0.5f * left_size.z()));
+  const int right = s.add(b, make_box(2, right_size, {kOrange, kCyan, kMagenta, kLime, kPurple, kPink}),
+                          at(0.20f, 0.10f, 0.5f * right_size.z()));
+  s.add(b, make_can(3, 0.06f, 0.10f, kGreen, kYellow, kGrey), at(0.0f, -0.12f, 0.05f));
+  // Hands come from across the table (top of the image), fingers pointing at the camera.
+  const float yaw = -0.5f * kPi;
+  const Iso left_home = at(-0.20f, 0.95f, 0.60f, yaw), right_home = at(0.20f, 0.95f, 0.60f, yaw);
+  const int hand_l = s.add(b, make_hand(101), left_home);
+  const int hand_r = s.add(b, make_hand(102), right_home);
+
+  b.wait(1.0);
+  const Iso grasp_l = top_grasp(s.infos.bodies[left].info, b.pose(left), yaw);
+  const Iso grasp_r = top_grasp(s.infos.bodies[right].info, b.pose(right), yaw);
+  b.move({{hand_l, raised(grasp_l, kApproach)}, {hand_r, raised(grasp_r, kApproach)}});
+  b.move({{hand_l, grasp_l}, {hand_r, grasp_r}});
+  b.wait(0.3);
+  b.grasp(hand_l, left);
+  b.grasp(hand_r, right);
+
+  // Slide both along the table until their faces touch at x = 0.
+  const float gap = 0.0005f;
+  auto both_to = [&](float dx, float dy) {
+    const Iso l = at(-0.5f * left_size.x() - gap + dx, 0.10f + dy, 0.5f * left_size.z());
+    const Iso r = at(0.5f * right_size.x() + gap + dx, 0.10f + dy, 0.5f * right_size.z());
+    b.move({{hand_l, b.hand_target_for(hand_l, l)}, {hand_r, b.hand_target_for(hand_r, r)}}, 0.8);
+  };
+  both_to(0.0f, 0.0f);
+  b.wait(0.5);
+  both_to(0.0f, 0.12f);   // pushed together, away from the camera
+  both_to(0.08f, 0.06f);
+  both_to(-0.06f, 0.0f);
+  both_to(0.0f, 0.0f);
+  b.wait(0.5);
+  // Apart again, release, leave.
+  b.move({{hand_l, b.hand_target_for(hand_l, at(-0.20f, 0.10f, 0.5f * left_size.z()))},
+          {hand_r, b.hand_target_for(hand_r, at(0.20f, 0.10f, 0.5f * right_size.z()))}});
+  b.wait(0.3);
+  b.release(hand_l);
+  b.release(hand_r);
+  b.move({{hand_l, raised(b.pose(hand_l), kApproach)}, {hand_r, raised(b.pose(hand_r), kApproach)}});
+  b.move({{hand_l, left_home}, {hand_r, right_home}});
+  return b.finish(0.8);
+}
+
+Script rotate_scenario() {
+  ScriptBuilder b;
+  Bodies s;
+  const Eigen::Vector3f size(0.10f, 0.07f, 0.12f);
+  const int box = s.add(b, make_box(1, size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}),
+                        at(0.0f, 0.08f, 0.5f * size.z()));
+  s.add(b, make_can(2, 0.07f, 0.11f, kOrange, kBlack, kGrey), at(0.24f, 0.28f, 0.055f));
+  const Iso home = at(-0.75f, 0.08f, 0.35f);
+  const int hand = s.add(b, make_hand(101), home);
+
+  b.wait(1.0);
+  const Iso grasp = top_grasp(s.infos.bodies[box].info, b.pose(box), 0.0f);
+  b.move({{hand, raised(grasp, kApproach)}});
+  b.move({{hand, grasp}});
+  b.wait(0.3);
+  b.grasp(hand, box);
+  const Iso rest = b.pose(box);
+  const Iso lifted = raised(rest, 0.16f);
+  b.move({{hand, b.hand_target_for(hand, lifted)}});
+  b.wait(0.3);
+  // About each world axis in turn and back; signs keep the rigid arm above the table.
+  const std::array<Eigen::Matrix3f, 3> turns{rot(60.0f, Eigen::Vector3f::UnitX()), rot(45.0f, Eigen::Vector3f::UnitY()),
+                                             rot(-90.0f, Eigen::Vector3f::UnitZ())};
+  for (const Eigen::Matrix3f& r : turns) {
+    b.move({{hand, b.hand_target_for(hand, turned(lifted, r))}});
+    b.wait(0.3);
+    b.move({{hand, b.hand_target_for(hand, lifted)}});
+    b.wait(0.3);
+  }
+  // A combined turn (all three axes at once) and back.
+  const Eigen::Matrix3f combined = rot(-60.0f, Eigen::Vector3f::UnitZ()) * rot(30.0f, Eigen::Vector3f::UnitY()) *
+                                   rot(40.0f, Eigen::Vector3f::UnitX());
+  b.move({{hand, b.hand_target_for(hand, turned(lifted, combined))}});
+  b.wait(0.3);
+  b.move({{hand, b.hand_target_for(hand, lifted)}});
+  b.move({{hand, b.hand_target_for(hand, rest)}});
+  b.wait(0.3);
+  b.release(hand);
+  b.move({{hand, raised(b.pose(hand), kApproach)}});
+  b.move({{hand, home}});
+  return b.finish(0.8);
+}
+
+Script static_scenario() {
+  ScriptBuilder b;
+  b.add_body(make_box(1, {0.08f, 0.06f, 0.12f}, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}),
+             at(-0.20f, 0.12f, 0.06f, 20.0f * kPi / 180.0f));
+  b.add_body(make_can(2, 0.066f, 0.12f, kBlue, kWhite, kGrey), at(0.02f, 0.02f, 0.06f));
+  b.add_body(make_box(3, {0.14f, 0.10f, 0.06f}, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker,
+                      kBlack, 0.04f),
+             at(0.20f, 0.20f, 0.03f, -15.0f * kPi / 180.0f));
+  return b.finish(10.0);
+}
+
+// Uniform draws by own transforms of the generator's bits (identical on every platform).
+class Draw {
+ public:
+  explicit Draw(std::uint64_t seed) : gen_(seed) {}
+  double operator()(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(gen_() >> 11) * 0x1.0p-53; }
+  float f(double lo, double hi) { return static_cast<float>((*this)(lo, hi)); }
+  int index(int n) { return static_cast<int>(gen_() % static_cast<std::uint64_t>(n)); }
+
+ private:
+  std::mt19937_64 gen_;
+};
+
+BodyInfo random_object(Draw& draw, int id, float scale) {
+  std::array<Rgb8, kPalette.size()> colours = kPalette;
+  for (int i = static_cast<int>(colours.size()) - 1; i > 0; --i) std::swap(colours[i], colours[draw.index(i + 1)]);
+  if (draw(0.0, 1.0) < 0.65) {
+    const Eigen::Vector3f size(draw.f(0.05, 0.14) * scale, draw.f(0.05, 0.14) * scale, draw.f(0.05, 0.20) * scale);
+    const auto pattern = static_cast<Pattern>(draw.index(3));
+    return make_box(id, size.cwiseMax(0.05f), {colours[0], colours[1], colours[2], colours[3], colours[4], colours[5]},
+                    pattern, colours[6], draw.f(0.03, 0.06));
+  }
+  return make_can(id, std::max(0.05f, draw.f(0.05, 0.10) * scale), std::max(0.06f, draw.f(0.06, 0.20) * scale),
+                  colours[0], colours[1], colours[2], draw.f(0.02, 0.05));
+}
+
+// Smallest distance over s in [0, 1] between points a0 + s (a1 - a0) and b0 + s (b1 - b0).
+float closest_approach(const Eigen::Vector2f& a0, const Eigen::Vector2f& a1, const Eigen::Vector2f& b0,
+                       const Eigen::Vector2f& b1) {
+  const Eigen::Vector2f d0 = a0 - b0, dd = (a1 - b1) - d0;
+  const float len2 = dd.squaredNorm();
+  const float s = len2 > 0.0f ? std::clamp(-d0.dot(dd) / len2, 0.0f, 1.0f) : 0.0f;
+  return (d0 + s * dd).norm();
+}
+
+Script random_scenario(const ScenarioOptions& o, int attempt) {
+  constexpr std::uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
+  Draw draw(o.seed * kGolden + static_cast<std::uint64_t>(attempt) + 0x5eedULL);
+  const double duration = (o.num_frames > 0 ? o.num_frames : 600) / kFps;
+  constexpr float kXMin = -0.34f, kXMax = 0.34f, kYMin = -0.16f, kYMax = 0.40f;
+  ScriptBuilder b;
+
+  struct Placed {
+    int body;
+    float radius, half_height;
+    Eigen::Vector2f xy;
+    float yaw;
+  };
+  std::vector<Placed> objects;
+  float scale = 1.0f;
+  for (int id = 1; id <= o.num_objects; ++id) {
+    for (;;) {
+      const BodyInfo info = random_object(draw, id, scale);
+      const float r = footprint_radius(info);
+      bool placed = false;
+      for (int tries = 0; tries < 200 && !placed; ++tries) {
+        const Eigen::Vector2f xy(draw.f(kXMin + r, kXMax - r), draw.f(kYMin + r, kYMax - r));
+        placed = std::all_of(objects.begin(), objects.end(),
+                             [&](const Placed& p) { return (p.xy - xy).norm() >= p.radius + r + 0.04f; });
+        if (placed) {
+          const float yaw = draw.f(-kPi, kPi);
+          const int body = b.add_body(info, at(xy.x(), xy.y(), half_height(info), yaw));
+          objects.push_back({body, r, half_height(info), xy, yaw});
+        }
+      }
+      if (placed) break;
+      scale *= 0.85f;  // crowded table: smaller objects
+    }
+  }
+
+  // Objects slide in common phases; each mover's straight path keeps 1.5 cm clear of every other
+  // object's path in the same phase (positions are linear in the common ease parameter).
+  double t = 1.0;
+  while (t < duration) {
+    const double phase = draw(1.5, 3.0);
+    std::vector<Eigen::Vector2f> from(objects.size()), to(objects.size());
+    std::vector<float> yaw_to(objects.size());
+    for (std::size_t i = 0; i < objects.size(); ++i) from[i] = to[i] = objects[i].xy, yaw_to[i] = objects[i].yaw;
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+      if (draw(0.0, 1.0) >= 0.6) continue;
+      const float dist = static_cast<float>(o.speed * phase);
+      const float max_turn = std::min(kPi / 4.0f, static_cast<float>(0.8 * phase));
+      for (int tries = 0; tries < 8; ++tries) {
+        const float heading = draw.f(-kPi, kPi);
+        const Eigen::Vector2f target = from[i] + dist * Eigen::Vector2f(std::cos(heading), std::sin(heading));
+        const float turn = draw.f(-max_turn, max_turn);
+        const float r = objects[i].radius;
+        if (target.x() < kXMin + r || target.x() > kXMax - r || target.y() < kYMin + r || target.y() > kYMax - r) continue;
+        bool clear = true;
+        for (std::size_t j = 0; j < objects.size() && clear; ++j) {
+          if (j == i) continue;
+          clear = closest_approach(from[i], target, from[j], to[j]) >= r + objects[j].radius + 0.015f;
+        }
+        if (clear) {
+          to[i] = target;
+          yaw_to[i] = objects[i].yaw + turn;
+          break;
+        }
+      }
+    }
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+      if (to[i] == from[i]) continue;
+      Placed& p = objects[i];
+      b.key(p.body, t, at(p.xy.x(), p.xy.y(), p.half_height, p.yaw));
+      p.xy = to[i];
+      p.yaw = yaw_to[i];
+      b.key(p.body, t + phase, at(p.xy.x(), p.xy.y(), p.half_height, p.yaw));
+    }
+    t += phase + draw(0.3, 1.5);
+  }
+
+  // Hands pass over the objects one at a time, hovering 10-18 cm above the tallest object.
+  if (o.occlusion > 0.0f) {
+    float tallest = 0.0f;
+    for (const Placed& p : objects) tallest = std::max(tallest, 2.0f * p.half_height);
+    const std::array<Iso, 2> homes{at(-0.75f, 0.10f, 0.35f), at(0.75f, 0.10f, 0.35f, kPi)};
+    const std::array<int, 2> hands{b.add_body(make_hand(101), homes[0]), b.add_body(make_hand(102), homes[1])};
+    const double idle_ratio = (1.0 - o.occlusion) / o.occlusion;
+    double th = draw(0.0, 2.0) * (1.0 - o.occlusion);
+    while (th < duration) {
+      const int k = draw.index(2);
+      const float hover = tallest + draw.f(0.10, 0.18);
+      const float side = k == 0 ? 1.0f : -1.0f;
+      const Iso p1 = at(draw.f(-0.3, 0.3), draw.f(-0.1, 0.35), hover, k == 0 ? 0.0f : kPi);
+      const Iso p2 = at(std::clamp(p1.translation().x() + side * draw.f(0.0, 0.2), -0.3f, 0.3f), draw.f(-0.1, 0.35),
+                        hover, k == 0 ? 0.0f : kPi);
+      const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+      auto frames = [](double s) { return std::ceil(s * kFps - 1e-6) / kFps; };
+      const double d1 = frames(std::max(0.5, min_move_duration(homes[k], p1, zero)));
+      const double d2 = frames(std::max(0.5, min_move_duration(p1, p2, zero)));
+      const double d3 = frames(std::max(0.5, min_move_duration(p2, homes[k], zero)));
+      b.key(hands[k], th, homes[k]);
+      b.key(hands[k], th + d1, p1);
+      b.key(hands[k], th + d1 + d2, p2);
+      b.key(hands[k], th + d1 + d2 + d3, homes[k]);
+      const double reach = d1 + d2 + d3;
+      th += reach + reach * idle_ratio * draw(0.5, 1.5) + 0.2;
+    }
+  }
+  return b.finish(duration);
+}
+
+}  // namespace
+
+World make_world() {
+  World world;
+  // Camera 1 m from the look-at point on the table, 45 degrees down; x right, y down, z forward.
+  const Eigen::Vector3f target(0.0f, 0.05f, 0.0f);
+  const float pitch = kPi / 4.0f, distance = 1.0f;
+  const Eigen::Vector3f position = target + distance * Eigen::Vector3f(0.0f, -std::cos(pitch), std::sin(pitch));
+  const Eigen::Vector3f z = (target - position).normalized(), x = Eigen::Vector3f::UnitX(), y = z.cross(x);
+  Eigen::Matrix3f camera_to_world;
+  camera_to_world << x, y, z;
+  world.world_to_camera.linear() = camera_to_world.transpose();
+  world.world_to_camera.translation() = -(camera_to_world.transpose() * position);
+
+  Plane table;
+  table.pose.translation = Eigen::Vector3f(0.0f, 0.05f, 0.0f);
+  table.half_extent_x = 0.70f;
+  table.half_extent_y = 0.55f;
+  table.color_a = {186, 142, 98};
+  table.color_b = {166, 122, 80};
+  table.tile_m = 0.10f;
+  world.planes.push_back(table);
+
+  Plane floor;
+  floor.pose.translation = Eigen::Vector3f(0.0f, 0.0f, -0.72f);
+  floor.color_a = {120, 120, 128};
+  floor.color_b = {100, 100, 108};
+  floor.tile_m = 0.30f;
+  world.planes.push_back(floor);
+
+  Plane wall;  // facing the camera
+  wall.pose.translation = Eigen::Vector3f(0.0f, 1.8f, 0.0f);
+  wall.pose.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(kPi / 2.0f, Eigen::Vector3f::UnitX()));
+  wall.color_a = wall.color_b = {214, 208, 192};
+  world.planes.push_back(wall);
+
+  world.light_direction = Eigen::Vector3f(0.25f, -0.35f, 1.0f).normalized();
+  return world;
+}
+
+Script build_scenario(const ScenarioOptions& options, int attempt) {
+  if (options.name == "stack") return stack_scenario();
+  if (options.name == "contact") return contact_scenario();
+  if (options.name == "rotate") return rotate_scenario();
+  if (options.name == "static") return static_scenario();
+  if (options.name == "random") return random_scenario(options, attempt);
+  throw std::invalid_argument("ScenarioOptions.name must be one of stack, contact, rotate, static, random");
+}
+
+}  // namespace mfot::sim::detail

@@ -1,0 +1,123 @@
+#pragma once
+// Scripted motion of the simulator's bodies (private to mfot_sim).
+//
+// A body's world pose over time is either keyframe interpolation or, while it is carried, the
+// carrying hand's pose times a fixed offset (so carried objects move rigidly with the hand).
+// Between keyframes the pose follows an ease-in/ease-out profile s = 3 tau^2 - 2 tau^3 (zero
+// velocity at every keyframe): the rotation is slerped with s and a pivot point of the body moves
+// on a straight line with s (the pivot is the carried object's centre for a carrying hand, so an
+// object turned in the hand rotates about its own centre; the body origin otherwise).
+
+#include "mfot/sim/simulator.hpp"
+
+#include <Eigen/Geometry>
+
+#include <limits>
+#include <vector>
+
+namespace mfot::sim::detail {
+
+using Iso = Eigen::Isometry3f;
+
+struct Keyframe {
+  double t = 0.0;
+  Iso pose = Iso::Identity();                        // body -> world
+  Eigen::Vector3f pivot = Eigen::Vector3f::Zero();   // body frame; used by the segment ending here
+};
+
+struct Attachment {
+  int carrier = -1;  // body index of the hand
+  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+  Iso offset = Iso::Identity();  // carried body -> carrier body
+};
+
+struct BodyScript {
+  BodyInfo info;
+  std::vector<Keyframe> keys;            // sorted by t
+  std::vector<Attachment> attachments;   // disjoint intervals
+};
+
+struct Script {
+  std::vector<BodyScript> bodies;
+  double duration_s = 0.0;
+};
+
+// World pose of body b at time t.
+Iso pose_at(const Script& script, int b, double t);
+
+// Peak speeds of the scripted motion (ease-in/ease-out peak is 1.5x the mean): the builder picks
+// segment durations so that neither is exceeded by any moving body's origin.
+constexpr double kMaxLinearSpeed = 0.27;         // m/s
+constexpr double kMaxAngularSpeed = 1.40;        // rad/s (80 deg/s)
+constexpr double kFps = 30.0;
+
+// Builds a Script as a sequence of phases on a common timeline. A phase moves some bodies to
+// targets simultaneously; carried objects follow their hand.
+class ScriptBuilder {
+ public:
+  int add_body(BodyInfo info, const Iso& world_pose);
+  const Iso& pose(int body) const { return current_[body]; }
+  double now() const { return now_; }
+
+  // Moves each (body, target) of one phase; duration is at least min_duration_s and long enough
+  // for the speed limits, rounded up to whole frames. Returns the duration.
+  struct Target {
+    int body;
+    Iso pose;
+  };
+  double move(const std::vector<Target>& targets, double min_duration_s = 0.5);
+  // The hand target that puts the object carried by hand at object_pose.
+  Iso hand_target_for(int hand, const Iso& object_pose) const;
+  void grasp(int hand, int object);
+  void release(int hand);
+  void wait(double seconds);
+  // Adds a keyframe at time t without moving the timeline (independent per-body schedules).
+  void key(int body, double t, const Iso& pose);
+
+  Script finish(double extra_wait_s);
+
+ private:
+  Script script_;
+  std::vector<Iso> current_;
+  std::vector<int> carried_by_;   // per body: carrying hand or -1
+  std::vector<int> carrying_;     // per body (hands): carried object or -1
+  double now_ = 0.0;
+};
+
+// Mean-speed-safe duration of the ease-in/ease-out move from a to b with the given pivot.
+double min_move_duration(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot);
+
+// Interpolated pose between a and b at normalised time tau in [0, 1] (ease-in/ease-out).
+Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau);
+
+// ---- bodies ------------------------------------------------------------------------------
+BodyInfo make_box(int id, const Eigen::Vector3f& size, const std::array<Rgb8, 6>& faces, Pattern pattern = Pattern::solid,
+                  Rgb8 pattern_color = {}, float period_m = 0.04f);
+BodyInfo make_can(int id, float diameter, float height, Rgb8 side, Rgb8 stripe, Rgb8 caps, float period_m = 0.03f);
+// A rigid hand: palm box, bent fingers box, and one cylinder for forearm and upper arm rising
+// 20 degrees from the wrist (hand frame: x along the fingers, z out of the back of the hand).
+BodyInfo make_hand(int id);
+// Hand pose (world) grasping from above an object at object_pose with extent size (body info),
+// fingers pointing along the object's local direction at yaw in its horizontal plane and hanging
+// over the face there, palm resting on the top face.
+Iso top_grasp(const BodyInfo& object, const Iso& object_pose, float yaw);
+
+// Half height of a body (objects: primitive extent along local z).
+float half_height(const BodyInfo& object);
+// Radius of the body's footprint circle (table plane) when upright.
+float footprint_radius(const BodyInfo& object);
+
+// ---- scenarios ---------------------------------------------------------------------------
+// The fixed surroundings: camera placement, table, floor and wall (plane poses: plane -> world).
+struct World {
+  Iso world_to_camera = Iso::Identity();
+  std::vector<Plane> planes;
+  Eigen::Vector3f light_direction = Eigen::Vector3f::UnitZ();  // towards the light, world frame
+};
+World make_world();
+
+// The script of options.name. attempt varies the random scenario's layout (the simulator retries
+// layouts whose objects are hidden at frame 0); the scripted scenarios ignore it.
+Script build_scenario(const ScenarioOptions& options, int attempt);
+
+}  // namespace mfot::sim::detail

@@ -1,0 +1,150 @@
+#include "mfot/sim/simulator.hpp"
+
+#include "script.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mfot::sim {
+
+namespace {
+
+void require(bool ok, const char* field, const char* range) {
+  if (!ok) throw std::invalid_argument(std::string(field) + " must be " + range);
+}
+
+std::uint64_t mix64(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// Minimum visible pixels of every object at frame 0 for a random layout to be kept.
+constexpr int kMinVisiblePixels = 200;
+constexpr int kLayoutAttempts = 32;
+
+}  // namespace
+
+std::vector<std::string> scenario_names() { return {"stack", "contact", "rotate", "static", "random"}; }
+
+void ScenarioOptions::validate() const {
+  const auto names = scenario_names();
+  require(std::find(names.begin(), names.end(), name) != names.end(), "ScenarioOptions.name",
+          "one of stack, contact, rotate, static, random");
+  require(num_frames >= 0 && num_frames <= 1000000, "ScenarioOptions.num_frames", "in [0, 1000000]");
+  require(num_objects >= 1 && num_objects <= 8, "ScenarioOptions.num_objects", "in [1, 8]");
+  require(speed > 0.0f && speed <= 0.2f, "ScenarioOptions.speed", "in (0, 0.2] m/s");
+  require(occlusion >= 0.0f && occlusion <= 1.0f, "ScenarioOptions.occlusion", "in [0, 1]");
+}
+
+void SimulatorOptions::validate() const {
+  scenario.validate();
+  sensor.validate();
+  camera.validate();
+}
+
+struct Simulator::Impl {
+  SimulatorOptions options;
+  detail::World world;
+  detail::Script script;
+  std::vector<BodyInfo> bodies;
+  int num_frames = 0;
+
+  detail::Iso body_to_camera(int b, double t) const { return world.world_to_camera * detail::pose_at(script, b, t); }
+
+  Scene scene(double t) const {
+    Scene s;
+    for (Plane plane : world.planes) {
+      plane.pose = Pose::from_isometry(world.world_to_camera * plane.pose.isometry());
+      s.planes.push_back(plane);
+    }
+    for (std::size_t b = 0; b < bodies.size(); ++b) {
+      const detail::Iso to_camera = body_to_camera(static_cast<int>(b), t);
+      for (Primitive prim : bodies[b].primitives) {
+        prim.pose = Pose::from_isometry(to_camera * prim.pose.isometry());
+        s.primitives.push_back(prim);
+      }
+    }
+    s.light_direction = world.world_to_camera.linear() * world.light_direction;
+    return s;
+  }
+
+  bool all_objects_visible() const {
+    SensorOptions exact = options.sensor;
+    exact.noise = false;
+    const RenderedFrame frame = render_scene(scene(0.0), options.camera, exact, 0);
+    std::vector<int> count(bodies.size() + 1, 0);
+    for (std::size_t i = 0; i < frame.labels.size(); ++i) {
+      const int label = frame.labels[i];
+      if (frame.depth_mm[i] > 0 && label >= 1 && label <= static_cast<int>(bodies.size())) ++count[label];
+    }
+    for (const BodyInfo& body : bodies) {
+      if (!body.is_hand && count[body.id] < kMinVisiblePixels) return false;
+    }
+    return true;
+  }
+
+  void load(int attempt) {
+    script = detail::build_scenario(options.scenario, attempt);
+    bodies.clear();
+    for (const detail::BodyScript& body : script.bodies) bodies.push_back(body.info);
+  }
+};
+
+Simulator::Simulator(const SimulatorOptions& options) : impl_(std::make_unique<Impl>()) {
+  options.validate();
+  impl_->options = options;
+  impl_->world = detail::make_world();
+  impl_->load(0);
+  if (options.scenario.name == "random") {
+    for (int attempt = 1; attempt < kLayoutAttempts && !impl_->all_objects_visible(); ++attempt) impl_->load(attempt);
+  }
+  impl_->num_frames = options.scenario.num_frames > 0
+                          ? options.scenario.num_frames
+                          : static_cast<int>(std::lround(impl_->script.duration_s * detail::kFps));
+}
+
+Simulator::~Simulator() = default;
+Simulator::Simulator(Simulator&&) noexcept = default;
+Simulator& Simulator::operator=(Simulator&&) noexcept = default;
+
+int Simulator::num_frames() const { return impl_->num_frames; }
+
+double Simulator::fps() const { return detail::kFps; }
+
+std::vector<GroundTruthPose> Simulator::poses(int index) const {
+  if (index < 0 || index >= impl_->num_frames) throw std::out_of_range("Simulator: frame index out of range");
+  const double t = index / detail::kFps;
+  std::vector<GroundTruthPose> out;
+  for (std::size_t b = 0; b < impl_->bodies.size(); ++b) {
+    out.push_back({impl_->bodies[b].id, impl_->bodies[b].is_hand,
+                   Pose::from_isometry(impl_->body_to_camera(static_cast<int>(b), t))});
+  }
+  return out;
+}
+
+Scene Simulator::scene(int index) const {
+  if (index < 0 || index >= impl_->num_frames) throw std::out_of_range("Simulator: frame index out of range");
+  return impl_->scene(index / detail::kFps);
+}
+
+RenderedFrame Simulator::render(int index) const {
+  const Scene s = scene(index);
+  const std::uint64_t noise_seed = mix64(impl_->options.scenario.seed ^ mix64(static_cast<std::uint64_t>(index)));
+  RenderedFrame frame = render_scene(s, impl_->options.camera, impl_->options.sensor, noise_seed);
+  frame.index = index;
+  frame.time_s = index / detail::kFps;
+  frame.poses = poses(index);
+  return frame;
+}
+
+const SimulatorOptions& Simulator::options() const { return impl_->options; }
+
+const std::vector<BodyInfo>& Simulator::bodies() const { return impl_->bodies; }
+
+Pose Simulator::world_to_camera() const { return Pose::from_isometry(impl_->world.world_to_camera); }
+
+}  // namespace mfot::sim

@@ -1,0 +1,73 @@
+#pragma once
+// The GPU side of the CUDA JCSD evaluator behind a CUDA-free interface: cuda_jcsd_likelihood.cpp
+// (host compiler, Eigen) packs the data, jcsd_device.cu (nvcc, no Eigen) owns the stream, the
+// buffers and the kernels. Every failure throws std::runtime_error carrying cudaGetErrorString.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace mfot::cuda_detail {
+
+// Number of CUDA devices, or -1 with the CUDA error text in *why (when why is not null).
+int device_count(std::string* why);
+// "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)"; throws on an invalid ordinal.
+std::string device_description(int device);
+
+// One hypothesis point as the kernel reads it: two 16-byte words.
+struct PointRecord {
+  float x, y, z;       // camera frame, metres
+  std::int32_t hue_bin;  // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
+  float w_lo, w_hi;    // chromatic weights
+  float w_dark, w_light;  // achromatic weight in bin 6 or bin 7 (the other is 0)
+};
+static_assert(sizeof(PointRecord) == 32);
+
+// One particle as the kernel reads it: u = A z + b maps a camera-frame point z to grid units
+// (the inverse pose, minus the grid origin, over the cell size), rows [A_r0 b_0 | A_r1 b_1 | A_r2 b_2].
+struct ParticleRecord {
+  float m[12];
+};
+static_assert(sizeof(ParticleRecord) == 48);
+
+struct DeviceTiming {
+  float kernel_ms = 0.f;    // the scoring kernel alone (CUDA events)
+  float transfer_ms = 0.f;  // upload of points and particles, kernel, download of scores (CUDA events)
+};
+
+struct DeviceOptions {
+  int device = 0;
+  int blocks_per_sm = 4;  // scoring-kernel blocks aimed at per multiprocessor
+};
+
+class JcsdDevice {
+ public:
+  explicit JcsdDevice(const DeviceOptions& options);
+  ~JcsdDevice();
+  JcsdDevice(const JcsdDevice&) = delete;
+  JcsdDevice& operator=(const JcsdDevice&) = delete;
+
+  // Pinned host buffer for corners * 8 floats in the JcsdGrid layout. Waits until the previous
+  // grid upload has left it.
+  float* grid_staging(std::size_t corners);
+  // Uploads the staged grid (asynchronously, on this object's stream) and expands it into the
+  // kernel's layout. dims are the corners along x, y, z (each >= 2).
+  void upload_grid(const std::array<int, 3>& dims);
+
+  PointRecord* point_staging(std::size_t points);
+  ParticleRecord* particle_staging(std::size_t particles);
+  // Uploads the staged points and particles, scores them against the uploaded grid and writes
+  // the particle scores to scores (host memory, `particles` floats). Blocks until done.
+  void evaluate(std::size_t points, std::size_t particles, float* scores);
+
+  DeviceTiming last_timing() const;
+  const std::string& description() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace mfot::cuda_detail

@@ -1,0 +1,89 @@
+#pragma once
+// Strict YAML configuration: every key is read with its type and allowed range, and keys nobody
+// reads are errors, so a typo in a config is refused at start instead of silently ignored.
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mfot::service {
+
+struct ConfigError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Parses a YAML file; throws ConfigError naming the file (and line for syntax errors).
+YAML::Node load_config_file(const std::string& path);
+
+// A strict view of one YAML mapping. Reads record the key; finish() throws listing unknown keys.
+class ConfigSection {
+ public:
+  ConfigSection(YAML::Node node, std::string path);
+
+  const std::string& path() const { return path_; }
+  bool has(const std::string& key) const;
+
+  template <class T>
+  T get(const std::string& key, T default_value) {
+    const YAML::Node value = lookup(key);
+    if (!value) return default_value;
+    try {
+      return value.as<T>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(qualified(key) + ": expected " + type_name<T>() + ", got '" + scalar_text(value) + "'" +
+                        line_of(value));
+    }
+  }
+
+  template <class T>
+  T get(const std::string& key, T default_value, T min, T max) {
+    const T value = get<T>(key, default_value);
+    if (!(value >= min && value <= max)) {
+      throw ConfigError(qualified(key) + ": value " + to_text(value) + " is out of range [" + to_text(min) + ", " +
+                        to_text(max) + "]" + line_of(lookup(key)));
+    }
+    return value;
+  }
+
+  std::string choice(const std::string& key, std::string default_value, const std::vector<std::string>& allowed);
+  std::vector<double> get_vector(const std::string& key, std::vector<double> default_value, std::size_t size);
+  ConfigSection section(const std::string& key);
+
+  // Throws ConfigError naming every key of this mapping that was never read.
+  void finish() const;
+
+ private:
+  YAML::Node lookup(const std::string& key);
+  std::string qualified(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  static std::string scalar_text(const YAML::Node& node);
+  static std::string line_of(const YAML::Node& node);
+  template <class T> static std::string type_name();
+  template <class T> static std::string to_text(const T& v) {
+    if constexpr (std::is_same_v<T, std::string>) return v; else return std::to_string(v);
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  std::set<std::string> read_;
+};
+
+template <> inline std::string ConfigSection::type_name<bool>() { return "a boolean"; }
+template <> inline std::string ConfigSection::type_name<int>() { return "an integer"; }
+template <> inline std::string ConfigSection::type_name<long>() { return "an integer"; }
+template <> inline std::string ConfigSection::type_name<long long>() { return "an integer"; }
+template <> inline std::string ConfigSection::type_name<unsigned long>() { return "a non-negative integer"; }
+template <> inline std::string ConfigSection::type_name<float>() { return "a number"; }
+template <> inline std::string ConfigSection::type_name<double>() { return "a number"; }
+template <> inline std::string ConfigSection::type_name<std::string>() { return "a string"; }
+
+// The top-level mapping `name` of a config root (an empty section when absent). The root itself
+// may only contain known service sections; see known_sections().
+ConfigSection config_section(const YAML::Node& root, const std::string& name);
+
+// Throws ConfigError when the root has a top-level key that is not a known section.
+void check_top_level(const YAML::Node& root, const std::vector<std::string>& known_sections);
+
+}  // namespace mfot::service

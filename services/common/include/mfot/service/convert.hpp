@@ -1,0 +1,36 @@
+#pragma once
+// Conversions between LCM messages and the core's plain types, with validation: a message that
+// fails (inconsistent sizes, NaN/Inf coordinates, non-unit quaternion) is reported as a string
+// naming the problem and never reaches the core.
+
+#include "mfot/likelihood.hpp"
+#include "mfot/object_model_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/types.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mfot::service {
+
+struct Scene {
+  std::int64_t frame_seq = 0;
+  std::int64_t capture_utime = 0;
+  ColoredCloud cloud;                    // camera frame
+  std::vector<std::int32_t> cluster;     // per point, -1 = none
+  std::vector<SmrFeature> features;      // per point (filled by whoever needs them)
+};
+
+// Returns an error text, or nullopt when the message is valid and `out` is filled.
+std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& out);
+
+std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out);
+void pose_to_arrays(const Pose& pose, double position[3], double orientation[4]);
+
+// The model of an object_model_t (object frame) with SMR features; error text on invalid data.
+std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
+                                              PoseVector& velocity);
+void model_to_message(const ObjectModel& model, object_model_t& msg);
+
+}  // namespace mfot::service

@@ -1,0 +1,83 @@
+#pragma once
+// LCM plumbing shared by every service: channel names, the transport URL, validated decoding,
+// signal handling and logging set-up.
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <cstdint>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <string>
+#include <utility>
+
+namespace mfot::service {
+
+namespace channel {
+inline constexpr const char* kFrame = "MFOT_FRAME";                // frame_t, capture -> preprocess, merger
+inline constexpr const char* kScene = "MFOT_SCENE";                // scene_cloud_t, preprocess -> trackers, merger
+inline constexpr const char* kModel = "MFOT_MODEL";                // object_model_t, merger -> trackers
+inline constexpr const char* kEstimate = "MFOT_ESTIMATE";          // tracker_estimate_t, trackers -> merger
+inline constexpr const char* kPoses = "MFOT_POSES";                // poses_t, merger -> controllers (and lockstep)
+inline constexpr const char* kSegmentation = "MFOT_SEGMENTATION";  // segmentation_t, merger -> anyone
+inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_t, trackers -> merger
+inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
+}  // namespace channel
+
+// Host-local multicast: ttl=0 keeps traffic on this machine (LCM has no authentication).
+inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+// `configured` if not empty, else $LCM_DEFAULT_URL, else kDefaultLcmUrl.
+std::string lcm_url(const std::string& configured);
+
+std::int64_t now_utime();
+
+// Counts malformed messages; logs the first of each (channel, kind) and stays quiet afterwards.
+class MalformedCounter {
+ public:
+  void record(const std::string& channel, const std::string& kind, const std::string& detail);
+  std::int64_t total() const;
+  std::string last() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::pair<std::string, std::string>, std::int64_t> counts_;
+  std::int64_t total_ = 0;
+  std::string last_;
+};
+
+// Decodes an lcm-gen type; a truncated buffer or wrong fingerprint is counted and returns false.
+template <class T>
+bool decode_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, T& out,
+                    MalformedCounter& malformed) {
+  if (rbuf->data_size > static_cast<std::uint32_t>(INT32_MAX)) {
+    malformed.record(channel_name, "oversized", std::to_string(rbuf->data_size) + " bytes");
+    return false;
+  }
+  int n = -1;
+  try {
+    n = out.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+  } catch (const std::exception& e) {  // a negative or absurd array size
+    malformed.record(channel_name, "bad array size", e.what());
+    return false;
+  }
+  if (n < 0) {
+    malformed.record(channel_name, "undecodable",
+                     "truncated or wrong type fingerprint (" + std::to_string(rbuf->data_size) + " bytes)");
+    return false;
+  }
+  return true;
+}
+
+// SIGINT / SIGTERM set a flag that the service loops poll.
+void install_signal_handlers();
+bool stop_requested();
+void request_stop();
+
+// One lcm.handleTimeout(timeout_ms); returns false when LCM reports an error.
+bool handle_for(lcm::LCM& lcm, int timeout_ms);
+
+// Structured logging: "<time> <level> [<service>/<instance>] message".
+void setup_logging(const std::string& service, int instance);
+
+}  // namespace mfot::service

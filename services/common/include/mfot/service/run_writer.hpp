@@ -1,0 +1,45 @@
+#pragma once
+// Writes a run's results next to its lcm log, in formats any tool can score:
+//   poses.csv    frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale   (metres, object->camera)
+//   fitting.csv  frame,object_id,fitting_distance_m                          (thesis 4.1, 4.2)
+//   labels/<frame %06d>.png  16-bit label image aligned with the depth image (0 = none)
+
+#include "mfot/service/image_io.hpp"
+#include "mfot/types.hpp"
+
+#include <cstdint>
+#include <fstream>
+#include <span>
+#include <string>
+
+namespace mfot::service {
+
+class RunWriter {
+ public:
+  // Creates dir (and dir/labels); throws std::runtime_error naming the path on failure.
+  explicit RunWriter(const std::string& dir);
+  RunWriter(const RunWriter&) = delete;
+  RunWriter& operator=(const RunWriter&) = delete;
+
+  const std::string& dir() const { return dir_; }
+  void write_pose(std::int64_t frame, std::int64_t utime, std::int32_t object_id, const Pose& pose, float confidence,
+                  bool stale);
+  void write_fitting(std::int64_t frame, std::int32_t object_id, double fitting_distance_m);
+  // Written to a temporary name and renamed, so a reader never sees half an image.
+  void write_labels(std::int64_t frame, const Image16& labels);
+  void flush();
+
+ private:
+  std::string dir_;
+  std::ofstream poses_;
+  std::ofstream fitting_;
+};
+
+// Dense label image: every pixel whose back-projected 3D point falls in a labelled scene voxel
+// carries that voxel's label. Voxels are the cells floor(p / voxel_size) (the preprocess grid);
+// scene point k (a voxel mean, so inside its voxel) carries labels[k].
+Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,
+                     std::span<const std::uint16_t> depth_mm, float voxel_size,
+                     std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels);
+
+}  // namespace mfot::service

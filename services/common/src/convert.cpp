@@ -1,0 +1,106 @@
+#include "mfot/service/convert.hpp"
+
+#include <cmath>
+
+namespace mfot::service {
+
+namespace {
+bool finite3(float x, float y, float z) { return std::isfinite(x) && std::isfinite(y) && std::isfinite(z); }
+}  // namespace
+
+std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& out) {
+  const auto n = static_cast<std::size_t>(msg.num_points);
+  if (msg.num_points < 0) return "negative num_points";
+  if (msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.r.size() != n || msg.g.size() != n ||
+      msg.b.size() != n || msg.u.size() != n || msg.v.size() != n || msg.cluster.size() != n) {
+    return "array sizes disagree with num_points";
+  }
+  if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
+  out.frame_seq = msg.frame_seq;
+  out.capture_utime = msg.capture_utime;
+  out.cloud.clear();
+  out.cloud.reserve(n);
+  out.cluster.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!finite3(msg.x[i], msg.y[i], msg.z[i])) return "non-finite coordinate at point " + std::to_string(i);
+    if (msg.cluster[i] < -1 || msg.cluster[i] >= msg.num_clusters) {
+      return "cluster index " + std::to_string(msg.cluster[i]) + " out of range at point " + std::to_string(i);
+    }
+    out.cloud.push_back({msg.x[i], msg.y[i], msg.z[i]},
+                        {static_cast<std::uint8_t>(msg.r[i]), static_cast<std::uint8_t>(msg.g[i]),
+                         static_cast<std::uint8_t>(msg.b[i])});
+    out.cluster[i] = msg.cluster[i];
+  }
+  out.features.clear();
+  return std::nullopt;
+}
+
+std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out) {
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(position[i])) return "non-finite position";
+  }
+  double norm2 = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (!std::isfinite(orientation[i])) return "non-finite orientation";
+    norm2 += orientation[i] * orientation[i];
+  }
+  if (std::abs(norm2 - 1.0) > 1e-3) return "orientation is not a unit quaternion";
+  out.translation = Eigen::Vector3d(position[0], position[1], position[2]).cast<float>();
+  out.rotation = Eigen::Quaterniond(orientation[0], orientation[1], orientation[2], orientation[3]).cast<float>().normalized();
+  return std::nullopt;
+}
+
+void pose_to_arrays(const Pose& pose, double position[3], double orientation[4]) {
+  for (int i = 0; i < 3; ++i) position[i] = pose.translation[i];
+  orientation[0] = pose.rotation.w();
+  orientation[1] = pose.rotation.x();
+  orientation[2] = pose.rotation.y();
+  orientation[3] = pose.rotation.z();
+}
+
+std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
+                                              PoseVector& velocity) {
+  const auto n = static_cast<std::size_t>(msg.num_points);
+  if (msg.num_points < 0) return "negative num_points";
+  if (msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.r.size() != n || msg.g.size() != n ||
+      msg.b.size() != n) {
+    return "array sizes disagree with num_points";
+  }
+  if (auto error = pose_from_arrays(msg.position, msg.orientation, pose)) return error;
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite(msg.velocity[i])) return "non-finite velocity";
+    velocity[i] = static_cast<float>(msg.velocity[i]);
+  }
+  model.cloud.clear();
+  model.cloud.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!finite3(msg.x[i], msg.y[i], msg.z[i])) return "non-finite model point " + std::to_string(i);
+    model.cloud.push_back({msg.x[i], msg.y[i], msg.z[i]},
+                          {static_cast<std::uint8_t>(msg.r[i]), static_cast<std::uint8_t>(msg.g[i]),
+                           static_cast<std::uint8_t>(msg.b[i])});
+  }
+  model.features = compute_smr(model.cloud.colors);
+  return std::nullopt;
+}
+
+void model_to_message(const ObjectModel& model, object_model_t& msg) {
+  const std::size_t n = model.cloud.size();
+  msg.num_points = static_cast<std::int32_t>(n);
+  msg.x.resize(n);
+  msg.y.resize(n);
+  msg.z.resize(n);
+  msg.r.resize(n);
+  msg.g.resize(n);
+  msg.b.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& p = model.cloud.positions[i];
+    msg.x[i] = p.x();
+    msg.y[i] = p.y();
+    msg.z[i] = p.z();
+    msg.r[i] = model.cloud.colors[i].r;
+    msg.g[i] = model.cloud.colors[i].g;
+    msg.b[i] = model.cloud.colors[i].b;
+  }
+}
+
+}  // namespace mfot::service

@@ -1,0 +1,56 @@
+#include "mfot/service/status.hpp"
+
+#include "mfot/service_status_t.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <vector>
+
+namespace mfot::service {
+
+namespace {
+constexpr std::size_t kLatencyWindow = 300;
+
+float percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.f;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5);
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return static_cast<float>(values[k]);
+}
+}  // namespace
+
+StatusReporter::StatusReporter(lcm::LCM& lcm, std::string service, int instance, std::string backend)
+    : lcm_(lcm), service_(std::move(service)), instance_(instance), backend_(std::move(backend)) {}
+
+void StatusReporter::frame_done(double latency_ms) {
+  ++frames_;
+  latencies_ms_.push_back(latency_ms);
+  if (latencies_ms_.size() > kLatencyWindow) latencies_ms_.pop_front();
+}
+
+void StatusReporter::tick() {
+  const auto now = Clock::now();
+  const double elapsed = std::chrono::duration<double>(now - last_report_).count();
+  if (elapsed < 1.0) return;
+  const std::vector<double> window(latencies_ms_.begin(), latencies_ms_.end());
+  service_status_t msg;
+  msg.utime = now_utime();
+  msg.service = service_;
+  msg.instance = instance_;
+  msg.backend = backend_;
+  msg.rate_hz = static_cast<float>(static_cast<double>(frames_ - frames_at_last_report_) / elapsed);
+  msg.latency_p50_ms = percentile(window, 0.5);
+  msg.latency_p99_ms = percentile(window, 0.99);
+  msg.queue_depth = queue_depth_;
+  msg.frames = frames_;
+  msg.malformed = malformed_.total();
+  msg.message = message_.empty() ? malformed_.last() : message_;
+  lcm_.publish(channel::kStatus, &msg);
+  spdlog::debug("status: {:.1f} Hz, latency p50 {:.2f} ms p99 {:.2f} ms, frames {}, malformed {}, backend {}",
+                msg.rate_hz, msg.latency_p50_ms, msg.latency_p99_ms, msg.frames, msg.malformed, msg.backend);
+  frames_at_last_report_ = frames_;
+  last_report_ = now;
+}
+
+}  // namespace mfot::service

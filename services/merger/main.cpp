@@ -1,0 +1,394 @@
+// mfot-merger: the authority on objects. Wires LCM to mfot::ObjectManager (common/): waits for
+// the assigned trackers' estimates of each scene (with a timeout), segments, updates models,
+// creates and retires objects, assigns objects to tracker workers (and reassigns those of dead
+// workers), and publishes models, segmentation and the controller-facing poses.
+
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/metrics.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/segmentation_t.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/run_writer.hpp"
+#include "mfot/service/status.hpp"
+#include "mfot/tracker_estimate_t.hpp"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+
+namespace mfot::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct MergerConfig {
+  ObjectManagerOptions manager;
+  int estimate_timeout_ms = 500;
+  int worker_timeout_ms = 1000;
+  int expected_workers = 0;
+  int startup_timeout_ms = 10000;
+  bool write_labels = true;
+  bool fitting_distance = true;
+  Pose world_from_camera;
+  float fps = 30.f;
+};
+
+MergerConfig load_merger_config(const YAML::Node& root) {
+  MergerConfig c;
+  auto s = config_section(root, "merger");
+  c.manager.segmentation.tau = s.get<float>("tau", 0.010f, 1e-4f, 0.1f);
+  c.manager.model_update.alpha = s.get<float>("alpha", 0.02f, 0.f, 1.f);
+  c.manager.model_update.seed = s.get<std::uint64_t>("seed", 1);
+  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 50, 1, 100000);
+  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
+  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 3, 1, 1000);
+  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
+  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
+  c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
+  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
+  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
+  c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);
+  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 10000, 0, 600000);
+  c.write_labels = s.get<bool>("write_labels", true);
+  c.fitting_distance = s.get<bool>("fitting_distance", true);
+  c.fps = s.get<float>("fps", 30.f, 1.f, 1000.f);
+  auto world = s.section("world");
+  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
+  const auto q = world.get_vector("rotation", {1, 0, 0, 0}, 4);
+  double tq[3] = {t[0], t[1], t[2]};
+  double qq[4] = {q[0], q[1], q[2], q[3]};
+  if (auto error = pose_from_arrays(tq, qq, c.world_from_camera)) {
+    throw ConfigError("merger.world: " + *error + " (rotation is w, x, y, z)");
+  }
+  world.finish();
+  s.finish();
+  try {
+    c.manager.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("merger: ") + e.what());
+  }
+  return c;
+}
+
+struct Worker {
+  Clock::time_point last_seen;
+  std::int32_t object_id = -1;         // as assigned by the merger
+  Clock::time_point assigned_at;
+  bool alive = true;
+};
+
+class Merger {
+ public:
+  Merger(lcm::LCM& lcm, MergerConfig config, std::optional<std::string> output_dir)
+      : lcm_(lcm), config_(std::move(config)), manager_(config_.manager), status_(lcm, "merger", 0, "cpu") {
+    if (output_dir) writer_ = std::make_unique<RunWriter>(*output_dir);
+    lcm_.subscribe(channel::kScene, &Merger::on_scene, this);
+    lcm_.subscribe(channel::kEstimate, &Merger::on_estimate, this);
+    lcm_.subscribe(channel::kHeartbeat, &Merger::on_heartbeat, this);
+    if (writer_ && config_.write_labels) lcm_.subscribe(channel::kFrame, &Merger::on_frame, this);
+  }
+
+  void run() {
+    while (!stop_requested()) {
+      if (!handle_for(lcm_, 5)) {
+        spdlog::error("LCM receive failed; stopping");
+        break;
+      }
+      const auto now = Clock::now();
+      check_workers(now);
+      assign_idle_workers(now);
+      while (try_finish_frame(now)) {
+      }
+      status_.set_queue_depth(static_cast<int>(pending_.size()));
+      status_.tick();
+    }
+    if (writer_) writer_->flush();
+    spdlog::info("stopped after {} frames; {} objects tracked", status_.frames(), manager_.objects().size());
+  }
+
+ private:
+  struct PendingScene {
+    Scene scene;
+    Clock::time_point arrived;
+  };
+
+  void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    scene_cloud_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    PendingScene pending;
+    if (auto error = scene_from_message(msg, pending.scene)) {
+      status_.malformed().record(chan, "invalid scene", *error);
+      return;
+    }
+    if (pending.scene.frame_seq <= last_finished_seq_) {
+      status_.malformed().record(chan, "old or repeated frame", "seq " + std::to_string(pending.scene.frame_seq));
+      return;
+    }
+    pending.arrived = Clock::now();
+    voxel_size_ = msg.voxel_size;
+    pending_.push_back(std::move(pending));
+  }
+
+  void on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    tracker_estimate_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    ObjectEstimate estimate;
+    if (auto error = pose_from_arrays(msg.position, msg.orientation, estimate.pose)) {
+      status_.malformed().record(chan, "invalid estimate", *error);
+      return;
+    }
+    if (!std::isfinite(msg.confidence)) {
+      status_.malformed().record(chan, "invalid estimate", "non-finite confidence");
+      return;
+    }
+    estimate.confidence = msg.confidence;
+    if (msg.frame_seq <= last_finished_seq_) return;  // too late: that frame was published stale
+    estimates_[msg.frame_seq][msg.object_id] = estimate;
+  }
+
+  void on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    heartbeat_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    const auto now = Clock::now();
+    auto [it, inserted] = workers_.try_emplace(msg.worker_id);
+    Worker& w = it->second;
+    if (inserted || !w.alive) {
+      spdlog::info("tracker worker {} is {}", msg.worker_id, inserted ? "up" : "back");
+      w.object_id = -1;
+    }
+    w.alive = true;
+    w.last_seen = now;
+    // A restarted worker reports idle while we think it owns an object: send it the model again.
+    if (w.object_id >= 0 && msg.object_id != w.object_id &&
+        now - w.assigned_at > std::chrono::milliseconds(config_.worker_timeout_ms)) {
+      spdlog::warn("worker {} does not hold object {}; sending its model again", msg.worker_id, w.object_id);
+      publish_model(w.object_id, msg.worker_id);
+      w.assigned_at = now;
+    }
+  }
+
+  void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    frame_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    try {
+      Frame frame = decode_frame(msg);
+      frames_[msg.seq] = std::move(frame);
+      while (frames_.size() > 64) frames_.erase(frames_.begin());
+    } catch (const FrameCodecError& e) {
+      status_.malformed().record(chan, "undecodable frame", e.what());
+    }
+  }
+
+  void check_workers(Clock::time_point now) {
+    for (auto& [id, w] : workers_) {
+      if (!w.alive || now - w.last_seen <= std::chrono::milliseconds(config_.worker_timeout_ms)) continue;
+      w.alive = false;
+      spdlog::warn("tracker worker {} silent for {} ms: declared dead{}", id, config_.worker_timeout_ms,
+                   w.object_id >= 0 ? fmt::format("; object {} will be reassigned", w.object_id) : "");
+      if (w.object_id >= 0) owner_.erase(w.object_id);
+      w.object_id = -1;
+    }
+  }
+
+  // Every object without a live worker goes to the idle worker with the lowest id.
+  void assign_idle_workers(Clock::time_point now) {
+    for (const auto& [object_id, object] : manager_.objects()) {
+      if (owner_.count(object_id)) continue;
+      for (auto& [worker_id, w] : workers_) {
+        if (!w.alive || w.object_id >= 0) continue;
+        w.object_id = object_id;
+        w.assigned_at = now;
+        owner_[object_id] = worker_id;
+        spdlog::info("object {} assigned to worker {}", object_id, worker_id);
+        publish_model(object_id, worker_id);
+        break;
+      }
+    }
+  }
+
+  bool try_finish_frame(Clock::time_point now) {
+    if (pending_.empty()) return false;
+    PendingScene& next = pending_.front();
+    if (!started_) {
+      const auto alive = std::count_if(workers_.begin(), workers_.end(), [](const auto& w) { return w.second.alive; });
+      if (alive < config_.expected_workers &&
+          now - next.arrived < std::chrono::milliseconds(config_.startup_timeout_ms)) {
+        return false;
+      }
+      started_ = true;
+    }
+    const auto& got = estimates_[next.scene.frame_seq];
+    bool complete = true;
+    for (const auto& [object_id, worker_id] : owner_) {
+      if (!got.count(object_id)) complete = false;
+    }
+    const bool timed_out = now - next.arrived > std::chrono::milliseconds(config_.estimate_timeout_ms);
+    if (!complete && !timed_out) return false;
+    finish_frame(next, now);
+    pending_.pop_front();
+    return true;
+  }
+
+  void finish_frame(PendingScene& pending, Clock::time_point now) {
+    const auto t0 = Clock::now();
+    const Scene& scene = pending.scene;
+    std::map<std::int32_t, ObjectEstimate> estimates;
+    for (const auto& [object_id, estimate] : estimates_[scene.frame_seq]) {
+      if (owner_.count(object_id)) estimates.emplace(object_id, estimate);
+    }
+    const ObjectManagerFrame& result = manager_.process(scene.cloud, scene.cluster, estimates);
+    last_finished_seq_ = scene.frame_seq;
+    estimates_.erase(estimates_.begin(), estimates_.upper_bound(scene.frame_seq));
+
+    for (const std::int32_t id : result.retired) {
+      spdlog::info("object {} retired (no support)", id);
+      const auto it = owner_.find(id);
+      const std::int32_t worker = it == owner_.end() ? -1 : it->second;
+      if (it != owner_.end()) {
+        workers_[worker].object_id = -1;
+        owner_.erase(it);
+      }
+      object_model_t retire{};
+      retire.utime = now_utime();
+      retire.frame_seq = scene.frame_seq;
+      retire.object_id = id;
+      retire.worker_id = -1;
+      retire.version = -1;
+      retire.orientation[0] = 1;
+      lcm_.publish(channel::kModel, &retire);
+    }
+    for (const std::int32_t id : result.created) spdlog::info("object {} created at frame {}", id, scene.frame_seq);
+    assign_idle_workers(now);
+    for (const auto& [object_id, worker_id] : owner_) {
+      if (std::find(result.created.begin(), result.created.end(), object_id) == result.created.end()) {
+        publish_model(object_id, worker_id);
+      }
+    }
+
+    segmentation_t seg;
+    seg.utime = now_utime();
+    seg.frame_seq = scene.frame_seq;
+    seg.num_points = static_cast<std::int32_t>(result.labels.size());
+    seg.label = result.labels;
+    lcm_.publish(channel::kSegmentation, &seg);
+
+    poses_t poses;
+    poses.utime = now_utime();
+    poses.frame_seq = scene.frame_seq;
+    poses.capture_utime = scene.capture_utime;
+    for (const auto& [id, object] : manager_.objects()) {
+      object_pose_t p{};
+      p.id = id;
+      pose_to_arrays(object.pose, p.position, p.orientation);
+      pose_to_arrays(Pose::from_isometry(config_.world_from_camera.isometry() * object.pose.isometry()),
+                     p.world_position, p.world_orientation);
+      for (int i = 0; i < 3; ++i) {
+        p.linear_velocity[i] = object.velocity[i] * config_.fps;
+        p.angular_velocity[i] = object.velocity[3 + i] * config_.fps;
+      }
+      p.confidence = object.confidence;
+      p.stale = object.stale;
+      poses.objects.push_back(p);
+    }
+    poses.num_objects = static_cast<std::int32_t>(poses.objects.size());
+    write_results(scene, result);
+    lcm_.publish(channel::kPoses, &poses);
+    status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+
+  void write_results(const Scene& scene, const ObjectManagerFrame& result) {
+    if (!writer_) return;
+    if (config_.fitting_distance) fitting_.set_scene(scene.cloud.positions);
+    for (const auto& [id, object] : manager_.objects()) {
+      writer_->write_pose(scene.frame_seq, scene.capture_utime, id, object.pose, object.confidence, object.stale);
+      if (config_.fitting_distance && !scene.cloud.empty()) {
+        writer_->write_fitting(scene.frame_seq, id, fitting_.evaluate(object.model.cloud.positions, object.pose).mean);
+      }
+    }
+    if (config_.write_labels) {
+      const auto it = frames_.find(scene.frame_seq);
+      if (it == frames_.end()) {
+        status_.set_message("no frame for labels of seq " + std::to_string(scene.frame_seq));
+      } else {
+        const Frame& f = it->second;
+        writer_->write_labels(scene.frame_seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm,
+                                                            voxel_size_, scene.cloud.positions, result.labels));
+        frames_.erase(frames_.begin(), std::next(it));
+      }
+    }
+  }
+
+  void publish_model(std::int32_t object_id, std::int32_t worker_id) {
+    const ManagedObject& object = manager_.objects().at(object_id);
+    object_model_t msg{};
+    msg.utime = now_utime();
+    msg.frame_seq = last_finished_seq_;
+    msg.object_id = object_id;
+    msg.worker_id = worker_id;
+    msg.version = object.version;
+    pose_to_arrays(object.pose, msg.position, msg.orientation);
+    for (int i = 0; i < 6; ++i) msg.velocity[i] = object.velocity[i];
+    model_to_message(object.model, msg);
+    lcm_.publish(channel::kModel, &msg);
+  }
+
+  lcm::LCM& lcm_;
+  MergerConfig config_;
+  ObjectManager manager_;
+  StatusReporter status_;
+  FittingDistanceEvaluator fitting_;
+  std::unique_ptr<RunWriter> writer_;
+  std::deque<PendingScene> pending_;
+  std::map<std::int64_t, std::map<std::int32_t, ObjectEstimate>> estimates_;  // frame -> object -> estimate
+  std::map<std::int32_t, Worker> workers_;
+  std::map<std::int32_t, std::int32_t> owner_;  // object -> worker
+  std::map<std::int64_t, Frame> frames_;         // for dense label images
+  std::int64_t last_finished_seq_ = -1;
+  float voxel_size_ = 0.005f;
+  bool started_ = false;
+};
+
+}  // namespace
+}  // namespace mfot::service
+
+int main(int argc, char** argv) {
+  using namespace mfot::service;
+  CLI::App app{"mfot-merger: segmentation, model update and object management"};
+  std::string config_path = "configs/default.yaml";
+  std::string lcm_url_arg;
+  std::string output_dir;
+  app.add_option("--config", config_path, "YAML config (section `merger`)");
+  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
+  app.add_option("--output-dir", output_dir, "write poses.csv, fitting.csv and labels/ here");
+  CLI11_PARSE(app, argc, argv);
+  setup_logging("merger", 0);
+  install_signal_handlers();
+  try {
+    const MergerConfig config = load_merger_config(load_config_file(config_path));
+    lcm::LCM lcm(lcm_url(lcm_url_arg));
+    if (!lcm.good()) {
+      spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
+      return 1;
+    }
+    Merger merger(lcm, config, output_dir.empty() ? std::nullopt : std::optional<std::string>(output_dir));
+    spdlog::info("merger up (tau {} m, alpha {}), LCM {}", config.manager.segmentation.tau,
+                 config.manager.model_update.alpha, lcm_url(lcm_url_arg));
+    merger.run();
+  } catch (const ConfigError& e) {
+    spdlog::error("configuration refused: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("fatal: {}", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,243 @@
+// mfot-tracker: one tracker worker. It idles until the merger assigns it an object on
+// MFOT_MODEL, then runs that object's particle filter (thesis 2.2.2, 3.3) on every scene and
+// publishes the estimate. It heartbeats so the merger can hand its object to another worker if
+// this one dies or stalls. The likelihood backend (JCSD on CUDA or CPU, or the point-to-point
+// baseline) is chosen at run time; each worker owns its CUDA stream.
+
+#include "mfot/cuda/likelihood_factory.hpp"
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/hypothesis.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/status.hpp"
+#include "mfot/tracker_estimate_t.hpp"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <memory>
+#include <optional>
+
+namespace mfot::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct TrackerConfig {
+  LikelihoodOptions likelihood;
+  ParticleFilterOptions filter;
+  HypothesisOptions hypothesis;
+  int heartbeat_ms = 100;
+};
+
+LikelihoodBackend parse_backend(const std::string& name) {
+  if (name == "cuda") return LikelihoodBackend::kCuda;
+  if (name == "cpu") return LikelihoodBackend::kCpu;
+  if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
+  return LikelihoodBackend::kAuto;
+}
+
+TrackerConfig load_tracker_config(const YAML::Node& root) {
+  TrackerConfig c;
+  auto s = config_section(root, "tracker");
+  c.likelihood.backend = parse_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
+  c.likelihood.cpu_threads = s.get<int>("threads", 1, 1, 256);
+  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 0, 64);
+  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.015f, 0.001f, 0.2f);
+  c.filter.num_particles = s.get<int>("particles", c.filter.num_particles, 1, 100000);
+  c.filter.lambda = s.get<float>("lambda", c.filter.lambda, 0.f, 1000.f);
+  c.filter.seed = s.get<std::uint64_t>("seed", c.filter.seed);
+  const std::string resampling = s.choice("resampling", "systematic", {"multinomial", "systematic"});
+  c.filter.resampling = resampling == "systematic" ? ResamplingScheme::kSystematic : ResamplingScheme::kMultinomial;
+  const auto sigma = s.get_vector("init_sigma",
+                                  {c.filter.init_sigma[0], c.filter.init_sigma[1], c.filter.init_sigma[2],
+                                   c.filter.init_sigma[3], c.filter.init_sigma[4], c.filter.init_sigma[5]},
+                                  6);
+  for (int i = 0; i < 6; ++i) c.filter.init_sigma[i] = static_cast<float>(sigma[static_cast<std::size_t>(i)]);
+  c.filter.a = s.get<float>("diffusion_a", c.filter.a, 0.f, 100.f);
+  c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
+  c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
+  c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
+  c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
+  s.finish();
+  try {
+    const ParticleFilter validate_only(c.filter);  // the filter validates its options
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("tracker: ") + e.what());
+  }
+  return c;
+}
+
+class TrackerWorker {
+ public:
+  TrackerWorker(lcm::LCM& lcm, TrackerConfig config, int worker_id)
+      : lcm_(lcm),
+        config_(std::move(config)),
+        worker_id_(worker_id),
+        choice_(make_likelihood(config_.likelihood)),
+        status_(lcm, "tracker", worker_id, choice_.backend) {
+    spdlog::info("likelihood backend {}{}", choice_.backend, choice_.note.empty() ? "" : " (" + choice_.note + ")");
+    lcm_.subscribe(channel::kModel, &TrackerWorker::on_model, this);
+    lcm_.subscribe(channel::kScene, &TrackerWorker::on_scene, this);
+  }
+
+  void run() {
+    auto next_heartbeat = Clock::now();
+    while (!stop_requested()) {
+      if (!handle_for(lcm_, 5)) {
+        spdlog::error("LCM receive failed; stopping");
+        break;
+      }
+      // Drain what is queued, then work on the newest scene only.
+      int queued = 0;
+      while (lcm_.handleTimeout(0) > 0) ++queued;
+      status_.set_queue_depth(queued);
+      if (latest_scene_) {
+        track(*latest_scene_);
+        latest_scene_.reset();
+      }
+      const auto now = Clock::now();
+      if (now >= next_heartbeat) {
+        heartbeat();
+        next_heartbeat = now + std::chrono::milliseconds(config_.heartbeat_ms);
+      }
+      status_.tick();
+    }
+  }
+
+ private:
+  void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    object_model_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    if (msg.worker_id != worker_id_) {
+      if (object_id_ == msg.object_id) {
+        spdlog::info("object {} {}", object_id_, msg.worker_id < 0 ? "retired" : "moved to another worker");
+        object_id_ = -1;
+        filter_.reset();
+      }
+      return;
+    }
+    ObjectModel model;
+    Pose pose;
+    PoseVector velocity;  // the filter learns its own velocity within two frames
+    if (auto error = model_from_message(msg, model, pose, velocity)) {
+      status_.malformed().record(chan, "invalid model", *error);
+      return;
+    }
+    if (model.cloud.empty()) {
+      status_.malformed().record(chan, "invalid model", "empty model assigned");
+      return;
+    }
+    if (object_id_ != msg.object_id || !filter_) {
+      object_id_ = msg.object_id;
+      ParticleFilterOptions options = config_.filter;
+      options.seed = config_.filter.seed + static_cast<std::uint64_t>(msg.object_id);
+      filter_ = std::make_unique<ParticleFilter>(options);
+      filter_->reset(pose);
+      spdlog::info("took object {} (model v{}, {} points)", object_id_, msg.version, model.cloud.size());
+    }
+    model_version_ = msg.version;
+    model_box_ = model_bounding_box(model);
+    choice_.likelihood->set_model(model);
+    model_ = std::move(model);
+  }
+
+  void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    if (object_id_ < 0) return;
+    scene_cloud_t msg;
+    if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    Scene scene;
+    if (auto error = scene_from_message(msg, scene)) {
+      status_.malformed().record(chan, "invalid scene", *error);
+      return;
+    }
+    if (latest_scene_) status_.set_message("dropped scene " + std::to_string(latest_scene_->frame_seq));
+    latest_scene_ = std::move(scene);
+  }
+
+  void track(Scene& scene) {
+    if (object_id_ < 0 || !filter_) return;
+    const auto t0 = Clock::now();
+    scene.features = compute_smr(scene.cloud.colors);
+    select_hypothesis_data(scene.cloud, scene.features, model_box_, filter_->estimate(), config_.hypothesis,
+                           hypothesis_);
+    const Pose estimate = filter_->step(hypothesis_, *choice_.likelihood);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+
+    tracker_estimate_t msg{};
+    msg.utime = now_utime();
+    msg.frame_seq = scene.frame_seq;
+    msg.object_id = object_id_;
+    msg.worker_id = worker_id_;
+    msg.model_version = model_version_;
+    pose_to_arrays(estimate, msg.position, msg.orientation);
+    msg.confidence = filter_->confidence();
+    msg.effective_sample_size = filter_->effective_sample_size();
+    msg.num_particles = config_.filter.num_particles;
+    msg.num_hypothesis_points = static_cast<std::int32_t>(hypothesis_.points.size());
+    msg.compute_ms = static_cast<float>(ms);
+    lcm_.publish(channel::kEstimate, &msg);
+    last_frame_ = scene.frame_seq;
+    status_.frame_done(ms);
+  }
+
+  void heartbeat() {
+    heartbeat_t hb{};
+    hb.utime = now_utime();
+    hb.worker_id = worker_id_;
+    hb.object_id = object_id_;
+    hb.last_frame_seq = last_frame_;
+    lcm_.publish(channel::kHeartbeat, &hb);
+  }
+
+  lcm::LCM& lcm_;
+  TrackerConfig config_;
+  int worker_id_;
+  LikelihoodChoice choice_;
+  StatusReporter status_;
+  std::int32_t object_id_ = -1;
+  std::int32_t model_version_ = 0;
+  std::int64_t last_frame_ = -1;
+  ObjectModel model_;
+  Eigen::AlignedBox3f model_box_;
+  std::unique_ptr<ParticleFilter> filter_;
+  std::optional<Scene> latest_scene_;
+  HypothesisData hypothesis_;
+};
+
+}  // namespace
+}  // namespace mfot::service
+
+int main(int argc, char** argv) {
+  using namespace mfot::service;
+  CLI::App app{"mfot-tracker: one particle-filter tracker worker"};
+  std::string config_path = "configs/default.yaml";
+  std::string lcm_url_arg;
+  int worker_id = 0;
+  app.add_option("--config", config_path, "YAML config (section `tracker`)");
+  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
+  app.add_option("--worker-id", worker_id, "this worker's id, unique in the group")->required()->check(CLI::Range(0, 100000));
+  CLI11_PARSE(app, argc, argv);
+  setup_logging("tracker", worker_id);
+  install_signal_handlers();
+  try {
+    const TrackerConfig config = load_tracker_config(load_config_file(config_path));
+    lcm::LCM lcm(lcm_url(lcm_url_arg));
+    if (!lcm.good()) {
+      spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
+      return 1;
+    }
+    TrackerWorker worker(lcm, config, worker_id);
+    worker.run();
+  } catch (const ConfigError& e) {
+    spdlog::error("configuration refused: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("fatal: {}", e.what());
+    return 1;
+  }
+  return 0;
+}

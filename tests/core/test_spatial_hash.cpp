@@ -1,0 +1,162 @@
+#include "mfot/spatial_hash.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+namespace mfot {
+namespace {
+
+std::vector<Eigen::Vector3f> random_points(std::size_t n, float extent, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<Eigen::Vector3f> points(n);
+  for (auto& p : points) {
+    for (int a = 0; a < 3; ++a) p[a] = extent * (static_cast<float>(rng() >> 11) * 0x1.0p-53f - 0.5f);
+  }
+  return points;
+}
+
+int brute_nearest(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& q, float max_distance, float& d2_out) {
+  int best = -1;
+  float best_d2 = max_distance * max_distance;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const float d2 = (points[i] - q).squaredNorm();
+    if (d2 < best_d2 || (d2 == best_d2 && best < 0)) {
+      best_d2 = d2;
+      best = static_cast<int>(i);
+    }
+  }
+  d2_out = best_d2;
+  return best;
+}
+
+TEST(SpatialHash, RejectsInvalidCellSize) {
+  EXPECT_THROW(SpatialHash(0.f), std::invalid_argument);
+  EXPECT_THROW(SpatialHash(-0.01f), std::invalid_argument);
+  EXPECT_THROW(SpatialHash(std::numeric_limits<float>::quiet_NaN()), std::invalid_argument);
+}
+
+TEST(SpatialHash, EmptyIndexFindsNothing) {
+  SpatialHash hash(0.01f);
+  hash.build({});
+  EXPECT_EQ(hash.size(), 0u);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 1.f), -1);
+  std::vector<int> out;
+  hash.radius_search(Eigen::Vector3f::Zero(), 1.f, out);
+  EXPECT_TRUE(out.empty());
+}
+
+class SpatialHashVsBruteForce : public ::testing::TestWithParam<float> {};
+
+TEST_P(SpatialHashVsBruteForce, NearestMatchesBruteForce) {
+  const float max_distance = GetParam();
+  const auto points = random_points(3000, 0.3f, 1);
+  const auto queries = random_points(2000, 0.35f, 2);
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  ASSERT_EQ(hash.size(), points.size());
+  int found = 0;
+  for (const auto& q : queries) {
+    float expected_d2 = 0.f;
+    const int expected = brute_nearest(points, q, max_distance, expected_d2);
+    float d2 = -1.f;
+    const int got = hash.nearest(q, max_distance, &d2);
+    ASSERT_EQ(got, expected);
+    if (expected >= 0) {
+      EXPECT_EQ(d2, expected_d2);
+      ++found;
+    }
+  }
+  EXPECT_GT(found, 0);  // the radii are large enough that some queries succeed
+}
+
+TEST_P(SpatialHashVsBruteForce, RadiusSearchMatchesBruteForce) {
+  const float radius = GetParam();
+  const auto points = random_points(3000, 0.3f, 3);
+  const auto queries = random_points(500, 0.35f, 4);
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  std::vector<int> got;
+  for (const auto& q : queries) {
+    std::vector<int> expected;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if ((points[i] - q).squaredNorm() <= radius * radius) expected.push_back(static_cast<int>(i));
+    }
+    got.assign({-7});  // radius_search appends: existing content stays in front
+    hash.radius_search(q, radius, got);
+    ASSERT_EQ(got.front(), -7);
+    got.erase(got.begin());
+    ASSERT_EQ(got, expected);
+  }
+}
+
+// Radii below, at and above the cell size, and one wider than the whole cloud.
+INSTANTIATE_TEST_SUITE_P(Radii, SpatialHashVsBruteForce, ::testing::Values(0.004f, 0.01f, 0.025f, 1.f));
+
+TEST(SpatialHash, TiesGoToLowerIndex) {
+  // Duplicated points and points equidistant from the query.
+  const std::vector<Eigen::Vector3f> points = {
+      {0.5f, 0.f, 0.f}, {0.f, 0.f, 0.0625f}, {0.f, 0.f, -0.0625f}, {0.f, 0.0625f, 0.f}, {0.f, 0.f, 0.0625f}};
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  float d2 = 0.f;
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.1f, &d2), 1);
+  EXPECT_FLOAT_EQ(d2, 0.0625f * 0.0625f);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(0.f, 0.f, 0.0625f), 0.01f), 1);
+
+  // Reordering the input moves the winner with the lower index.
+  const std::vector<Eigen::Vector3f> reordered = {points[3], points[2], points[1], points[0]};
+  hash.build(reordered);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.1f), 0);
+}
+
+TEST(SpatialHash, MaxDistanceIsInclusiveAndBounding) {
+  const std::vector<Eigen::Vector3f> points = {{0.25f, 0.f, 0.f}};
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.25f), 0);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.2499f), -1);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), -1.f), -1);
+}
+
+TEST(SpatialHash, NonFinitePointsAreSkipped) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<Eigen::Vector3f> points = {{nan, 0.f, 0.f}, {0.f, inf, 0.f}, {0.01f, 0.f, 0.f}};
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  EXPECT_EQ(hash.size(), 3u);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 1.f), 2);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(nan, 0.f, 0.f), 1.f), -1);
+  std::vector<int> out;
+  hash.radius_search(Eigen::Vector3f::Zero(), std::numeric_limits<float>::infinity(), out);
+  EXPECT_EQ(out, std::vector<int>{2});
+}
+
+TEST(SpatialHash, NegativeCoordinatesAndFarPoints) {
+  // Cells straddling zero and points far outside the packed coordinate range stay exact.
+  const std::vector<Eigen::Vector3f> points = {{-0.0001f, -0.0001f, -0.0001f}, {0.0001f, 0.0001f, 0.0001f}, {1e6f, 0.f, 0.f}, {1.1e6f, 0.f, 0.f}};
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(-0.00005f, -0.0001f, -0.0001f), 0.01f), 0);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(0.00005f, 0.0001f, 0.0001f), 0.01f), 1);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(1.1e6f, 0.f, 0.f), 1.f), 3);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(1.05e6f, 0.f, 0.f), 1.f), -1);
+}
+
+TEST(SpatialHash, RebuildReplacesPoints) {
+  SpatialHash hash(0.01f);
+  hash.build(random_points(100, 0.1f, 5));
+  const std::vector<Eigen::Vector3f> points = {{1.f, 1.f, 1.f}};
+  hash.build(points);
+  EXPECT_EQ(hash.size(), 1u);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.2f), -1);
+  EXPECT_EQ(hash.nearest(Eigen::Vector3f(1.f, 1.f, 1.005f), 0.01f), 0);
+}
+
+}  // namespace
+}  // namespace mfot

@@ -1,0 +1,83 @@
+#include "mfot/service/config.hpp"
+
+#include <gtest/gtest.h>
+
+namespace mfot::service {
+namespace {
+
+ConfigSection section_of(const std::string& yaml, const std::string& name) {
+  return config_section(YAML::Load(yaml), name);
+}
+
+TEST(Config, ReadsValuesAndDefaults) {
+  auto s = section_of("tracker:\n  particles: 200\n  alpha: 0.05\n  backend: cpu\n", "tracker");
+  EXPECT_EQ(s.get<int>("particles", 100, 1, 100000), 200);
+  EXPECT_DOUBLE_EQ(s.get<double>("alpha", 0.02, 0.0, 1.0), 0.05);
+  EXPECT_EQ(s.choice("backend", "auto", {"auto", "cuda", "cpu"}), "cpu");
+  EXPECT_EQ(s.get<int>("threads", 3), 3);
+  EXPECT_NO_THROW(s.finish());
+}
+
+TEST(Config, UnknownKeyIsRefusedWithItsName) {
+  auto s = section_of("tracker:\n  particles: 200\n  partciles: 100\n", "tracker");
+  s.get<int>("particles", 100);
+  try {
+    s.finish();
+    FAIL() << "unknown key accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("tracker.partciles"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, OutOfRangeNamesKeyAndRange) {
+  auto s = section_of("merger:\n  alpha: 1.5\n", "merger");
+  try {
+    s.get<double>("alpha", 0.02, 0.0, 1.0);
+    FAIL() << "alpha > 1 accepted";
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("merger.alpha"), std::string::npos) << what;
+    EXPECT_NE(what.find("[0.0"), std::string::npos) << what;
+  }
+  auto zero = section_of("tracker:\n  particles: 0\n", "tracker");
+  EXPECT_THROW(zero.get<int>("particles", 100, 1, 100000), ConfigError);
+}
+
+TEST(Config, WrongTypeIsRefused) {
+  auto s = section_of("tracker:\n  particles: many\n", "tracker");
+  try {
+    s.get<int>("particles", 100);
+    FAIL() << "string accepted as integer";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("expected an integer"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, BadChoiceListsAllowedValues) {
+  auto s = section_of("tracker:\n  backend: opencl\n", "tracker");
+  try {
+    s.choice("backend", "auto", {"auto", "cuda", "cpu"});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("auto|cuda|cpu"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, NestedSectionsAndVectors) {
+  auto root = YAML::Load("merger:\n  world:\n    translation: [0, 0, 1]\n    bogus: 1\n");
+  auto merger = config_section(root, "merger");
+  auto world = merger.section("world");
+  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
+  EXPECT_DOUBLE_EQ(t[2], 1.0);
+  EXPECT_THROW(world.get_vector("translation", {}, 4), ConfigError);
+  EXPECT_THROW(world.finish(), ConfigError);
+  EXPECT_THROW(check_top_level(root, {"capture"}), ConfigError);
+  EXPECT_NO_THROW(check_top_level(root, {"merger"}));
+}
+
+TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
+  EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
+}
+
+}  // namespace
+}  // namespace mfot::service
