@@ -17,6 +17,12 @@ constexpr int kCoordBits = 21;
 constexpr float kCoordMin = -static_cast<float>(1 << (kCoordBits - 1));
 constexpr float kCoordMax = static_cast<float>((1 << (kCoordBits - 1)) - 1);
 
+// The dense layout is used up to this many cells per point (and at least kDenseMinCells):
+// 4 bytes per cell stay small next to the 16 bytes per point.
+constexpr std::int64_t kDenseCellsPerPoint = 64;
+constexpr std::int64_t kDenseMinCells = std::int64_t{1} << 18;
+constexpr std::int64_t kDenseMaxCells = std::int64_t{1} << 24;
+
 int clamped_cell(float scaled) {
   return static_cast<int>(std::clamp(std::floor(scaled), kCoordMin, kCoordMax));
 }
@@ -29,10 +35,14 @@ std::uint64_t pack_key(int cx, int cy, int cz) {
          (((static_cast<std::uint64_t>(cz) + offset) & mask) << (2 * kCoordBits));
 }
 
+// splitmix64 finaliser: every key bit reaches the low bits that pick the slot.
 std::size_t hash_key(std::uint64_t key) {
-  std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
-  h ^= h >> 31;
-  return static_cast<std::size_t>(h);
+  key ^= key >> 30;
+  key *= 0xBF58476D1CE4E5B9ull;
+  key ^= key >> 27;
+  key *= 0x94D049BB133111EBull;
+  key ^= key >> 31;
+  return static_cast<std::size_t>(key);
 }
 
 bool is_finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
@@ -51,24 +61,71 @@ std::array<int, 3> SpatialHash::cell_of(const Eigen::Vector3f& p) const {
 }
 
 void SpatialHash::build(std::span<const Eigen::Vector3f> points) {
-  points_.assign(points.begin(), points.end());
-
-  build_scratch_.clear();
-  build_scratch_.reserve(points_.size());
-  for (std::size_t i = 0; i < points_.size(); ++i) {
-    if (!is_finite(points_[i])) continue;
-    const auto c = cell_of(points_[i]);
-    build_scratch_.emplace_back(pack_key(c[0], c[1], c[2]), static_cast<int>(i));
+  size_ = points.size();
+  finite_scratch_.clear();
+  cell_scratch_.clear();
+  std::array<int, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!is_finite(points[i])) continue;
+    const auto c = cell_of(points[i]);
+    if (finite_scratch_.empty()) lo = hi = c;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], c[a]);
+      hi[a] = std::max(hi[a], c[a]);
+    }
+    finite_scratch_.push_back(static_cast<int>(i));
+    cell_scratch_.push_back(c);
   }
-  std::sort(build_scratch_.begin(), build_scratch_.end());
+  sorted_points_.resize(finite_scratch_.size());
+  sorted_index_.resize(finite_scratch_.size());
 
-  sorted_index_.resize(build_scratch_.size());
+  std::int64_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    grid_lo_[a] = lo[a];
+    grid_dims_[a] = hi[a] - lo[a] + 1;
+    cells *= grid_dims_[a];
+  }
+  const auto n = static_cast<std::int64_t>(finite_scratch_.size());
+  dense_ = cells <= std::min(kDenseMaxCells, std::max(kDenseMinCells, kDenseCellsPerPoint * n));
+  if (dense_) {
+    build_dense();
+  } else {
+    build_sparse();
+  }
+  for (std::size_t s = 0; s < sorted_index_.size(); ++s) sorted_points_[s] = points[static_cast<std::size_t>(sorted_index_[s])];
+}
+
+// Counting sort by linear cell index; visiting points in input order keeps each cell ascending.
+void SpatialHash::build_dense() {
+  const std::size_t cells = static_cast<std::size_t>(grid_dims_[0]) * grid_dims_[1] * grid_dims_[2];
+  cell_start_.assign(cells + 1, 0);
+  const auto linear = [&](const std::array<int, 3>& c) {
+    return (static_cast<std::size_t>(c[2] - grid_lo_[2]) * grid_dims_[1] + (c[1] - grid_lo_[1])) * grid_dims_[0] +
+           (c[0] - grid_lo_[0]);
+  };
+  for (const auto& c : cell_scratch_) ++cell_start_[linear(c) + 1];
+  for (std::size_t k = 0; k < cells; ++k) cell_start_[k + 1] += cell_start_[k];
+  // cell_start_[k] serves as the fill cursor of cell k, then is shifted back.
+  for (std::size_t r = 0; r < finite_scratch_.size(); ++r) {
+    sorted_index_[static_cast<std::size_t>(cell_start_[linear(cell_scratch_[r])]++)] = finite_scratch_[r];
+  }
+  for (std::size_t k = cells; k > 0; --k) cell_start_[k] = cell_start_[k - 1];
+  cell_start_[0] = 0;
+}
+
+void SpatialHash::build_sparse() {
+  key_scratch_.resize(finite_scratch_.size());
+  for (std::size_t r = 0; r < finite_scratch_.size(); ++r) {
+    const auto& c = cell_scratch_[r];
+    key_scratch_[r] = {pack_key(c[0], c[1], c[2]), static_cast<int>(r)};
+  }
+  std::sort(key_scratch_.begin(), key_scratch_.end());
+
   cell_count_ = 0;
-  for (std::size_t i = 0; i < build_scratch_.size(); ++i) {
-    sorted_index_[i] = build_scratch_[i].second;
-    if (i == 0 || build_scratch_[i].first != build_scratch_[i - 1].first) ++cell_count_;
+  for (std::size_t s = 0; s < key_scratch_.size(); ++s) {
+    sorted_index_[s] = finite_scratch_[static_cast<std::size_t>(key_scratch_[s].second)];
+    if (s == 0 || key_scratch_[s].first != key_scratch_[s - 1].first) ++cell_count_;
   }
-
   std::size_t capacity = 16;
   while (capacity < 2 * cell_count_) capacity *= 2;
   table_mask_ = capacity - 1;
@@ -76,10 +133,10 @@ void SpatialHash::build(std::span<const Eigen::Vector3f> points) {
   table_ranges_.assign(capacity, CellRange{});
 
   std::size_t begin = 0;
-  while (begin < build_scratch_.size()) {
-    const std::uint64_t key = build_scratch_[begin].first;
+  while (begin < key_scratch_.size()) {
+    const std::uint64_t key = key_scratch_[begin].first;
     std::size_t end = begin + 1;
-    while (end < build_scratch_.size() && build_scratch_[end].first == key) ++end;
+    while (end < key_scratch_.size() && key_scratch_[end].first == key) ++end;
     std::size_t slot = hash_key(key) & table_mask_;
     while (table_keys_[slot] != kEmptyKey) slot = (slot + 1) & table_mask_;
     table_keys_[slot] = key;
@@ -88,7 +145,7 @@ void SpatialHash::build(std::span<const Eigen::Vector3f> points) {
   }
 }
 
-std::size_t SpatialHash::size() const { return points_.size(); }
+std::size_t SpatialHash::size() const { return size_; }
 
 const SpatialHash::CellRange* SpatialHash::find_cell(int cx, int cy, int cz) const {
   const std::uint64_t key = pack_key(cx, cy, cz);
@@ -103,16 +160,33 @@ const SpatialHash::CellRange* SpatialHash::find_cell(int cx, int cy, int cz) con
 
 template <class Visit>
 void SpatialHash::for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const {
-  if (sorted_index_.empty() || !(radius >= 0.f) || !is_finite(q)) return;
+  if (sorted_points_.empty() || !(radius >= 0.f) || !is_finite(q)) return;
   // The small pad keeps points whose float distance rounds down to the radius inside the box.
   const Eigen::Vector3f r = Eigen::Vector3f::Constant(radius * 1.0001f + 1e-7f);
-  const auto lo = cell_of(q - r);
-  const auto hi = cell_of(q + r);
+  auto lo = cell_of(q - r);
+  auto hi = cell_of(q + r);
+
+  if (dense_) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(lo[a], grid_lo_[a]) - grid_lo_[a];
+      hi[a] = std::min(hi[a], grid_lo_[a] + grid_dims_[a] - 1) - grid_lo_[a];
+      if (lo[a] > hi[a]) return;
+    }
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const std::size_t row = (static_cast<std::size_t>(cz) * grid_dims_[1] + cy) * grid_dims_[0];
+        const int end = cell_start_[row + hi[0] + 1];
+        for (int s = cell_start_[row + lo[0]]; s < end; ++s) visit(s);
+      }
+    }
+    return;
+  }
+
   const double volume = (static_cast<double>(hi[0]) - lo[0] + 1) * (static_cast<double>(hi[1]) - lo[1] + 1) *
                         (static_cast<double>(hi[2]) - lo[2] + 1);
   // A box wider than the occupied cells is cheaper to answer by scanning every point.
   if (volume > static_cast<double>(cell_count_)) {
-    for (const int i : sorted_index_) visit(i);
+    for (int s = 0; s < static_cast<int>(sorted_points_.size()); ++s) visit(s);
     return;
   }
   for (int cz = lo[2]; cz <= hi[2]; ++cz) {
@@ -120,7 +194,7 @@ void SpatialHash::for_each_candidate(const Eigen::Vector3f& q, float radius, Vis
       for (int cx = lo[0]; cx <= hi[0]; ++cx) {
         const CellRange* cell = find_cell(cx, cy, cz);
         if (cell == nullptr) continue;
-        for (int k = cell->begin; k < cell->end; ++k) visit(sorted_index_[k]);
+        for (int s = cell->begin; s < cell->end; ++s) visit(s);
       }
     }
   }
@@ -129,9 +203,11 @@ void SpatialHash::for_each_candidate(const Eigen::Vector3f& q, float radius, Vis
 int SpatialHash::nearest(const Eigen::Vector3f& q, float max_distance, float* squared_distance) const {
   int best = -1;
   float best_d2 = max_distance * max_distance;
-  for_each_candidate(q, max_distance, [&](int i) {
-    const float d2 = (points_[i] - q).squaredNorm();
-    if (d2 < best_d2 || (d2 == best_d2 && (best < 0 || i < best))) {
+  for_each_candidate(q, max_distance, [&](int s) {
+    const float d2 = (sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm();
+    if (d2 > best_d2) return;
+    const int i = sorted_index_[static_cast<std::size_t>(s)];
+    if (d2 < best_d2 || best < 0 || i < best) {
       best_d2 = d2;
       best = i;
     }
@@ -143,8 +219,8 @@ int SpatialHash::nearest(const Eigen::Vector3f& q, float max_distance, float* sq
 void SpatialHash::radius_search(const Eigen::Vector3f& q, float radius, std::vector<int>& out) const {
   const std::size_t first = out.size();
   const float r2 = radius * radius;
-  for_each_candidate(q, radius, [&](int i) {
-    if ((points_[i] - q).squaredNorm() <= r2) out.push_back(i);
+  for_each_candidate(q, radius, [&](int s) {
+    if ((sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm() <= r2) out.push_back(sorted_index_[static_cast<std::size_t>(s)]);
   });
   std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
 }

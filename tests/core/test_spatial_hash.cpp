@@ -97,6 +97,30 @@ TEST_P(SpatialHashVsBruteForce, RadiusSearchMatchesBruteForce) {
 // Radii below, at and above the cell size, and one wider than the whole cloud.
 INSTANTIATE_TEST_SUITE_P(Radii, SpatialHashVsBruteForce, ::testing::Values(0.004f, 0.01f, 0.025f, 1.f));
 
+TEST(SpatialHash, FarApartClustersMatchBruteForce) {
+  // Two clouds 50 m apart: their bounding box spans too many cells for a dense grid, so this
+  // exercises the sparse cell table.
+  auto points = random_points(2000, 0.3f, 6);
+  for (std::size_t i = 0; i < points.size(); i += 2) points[i] += Eigen::Vector3f(50.f, -20.f, 10.f);
+  auto queries = random_points(600, 0.35f, 7);
+  for (std::size_t i = 0; i < queries.size(); i += 3) queries[i] += Eigen::Vector3f(50.f, -20.f, 10.f);
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  for (const float radius : {0.006f, 0.02f, 0.05f, 100.f}) {
+    for (const auto& q : queries) {
+      float expected_d2 = 0.f;
+      const int expected = brute_nearest(points, q, radius, expected_d2);
+      ASSERT_EQ(hash.nearest(q, radius), expected);
+      std::vector<int> expected_ball, got;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        if ((points[i] - q).squaredNorm() <= radius * radius) expected_ball.push_back(static_cast<int>(i));
+      }
+      hash.radius_search(q, radius, got);
+      ASSERT_EQ(got, expected_ball);
+    }
+  }
+}
+
 TEST(SpatialHash, TiesGoToLowerIndex) {
   // Duplicated points and points equidistant from the query.
   const std::vector<Eigen::Vector3f> points = {

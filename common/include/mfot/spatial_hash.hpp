@@ -30,27 +30,39 @@ class SpatialHash {
   void radius_search(const Eigen::Vector3f& q, float radius, std::vector<int>& out) const;
 
  private:
-  // Cells live in an open-addressing table (linear probing, power-of-two capacity, at most half
-  // full) so a query does a few array reads per cell and never allocates.
+  // Two cell layouts, chosen per build. Dense: when the bounding box of the points spans few
+  // enough cells (a scene, or a few models), cell offsets form a 3-D array in x-fastest order,
+  // so the cells of one x-row are contiguous and a query reads one span per (y, z) row. Sparse
+  // (far-flung points): cells live in an open-addressing table (linear probing, power-of-two
+  // capacity, at most half full). Queries allocate in neither.
   struct CellRange {
-    int begin = 0;  // [begin, end) in sorted_index_
+    int begin = 0;  // [begin, end) in sorted_points_ / sorted_index_
     int end = 0;
   };
   static constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
 
   std::array<int, 3> cell_of(const Eigen::Vector3f& p) const;
   const CellRange* find_cell(int cx, int cy, int cz) const;
-  // Calls visit(point index) for every indexed point that may lie within radius of q.
+  void build_dense();
+  void build_sparse();
+  // Calls visit(slot) for every slot of sorted_points_ that may lie within radius of q.
   template <class Visit>
   void for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const;
 
   float cell_size_;
   float inv_cell_;
-  std::vector<Eigen::Vector3f> points_;   // copy of the built points (finite ones are indexed)
-  std::vector<int> sorted_index_;         // point indices grouped by cell, increasing within a cell
-  std::vector<std::uint64_t> table_keys_; // kEmptyKey marks a free slot
+  std::size_t size_ = 0;
+  std::vector<Eigen::Vector3f> sorted_points_;  // the finite points, grouped by cell
+  std::vector<int> sorted_index_;               // their input indices, increasing within a cell
+  std::vector<int> finite_scratch_;             // build: input indices of the finite points
+  std::vector<std::array<int, 3>> cell_scratch_;  // build: their cells
+  bool dense_ = false;
+  std::array<int, 3> grid_lo_{0, 0, 0};
+  std::array<int, 3> grid_dims_{0, 0, 0};
+  std::vector<int> cell_start_;  // dense: offset of every cell's first slot, plus the total
+  std::vector<std::uint64_t> table_keys_;  // sparse: kEmptyKey marks a free slot
   std::vector<CellRange> table_ranges_;
-  std::vector<std::pair<std::uint64_t, int>> build_scratch_;  // (cell key, point index), reused
+  std::vector<std::pair<std::uint64_t, int>> key_scratch_;  // sparse build: (cell key, finite rank)
   std::size_t cell_count_ = 0;
   std::size_t table_mask_ = 0;
 };
