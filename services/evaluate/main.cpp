@@ -129,6 +129,7 @@ int main(int argc, char** argv) {
     std::cout << "\nwrote " << (out / "summary.json").string() << " and the CSV tables in " << out.string() << '\n';
 
     if (!no_plots) {
+      std::cout.flush();  // the plot script's lines come after the table
       const int status = run_plotter(plotter, out / "plots.json");
       if (status != 0) {
         std::cerr << "mfot-evaluate: plotting failed (" << plotter << " exited with " << status

@@ -10,6 +10,8 @@
 #include "mfot/service/lcm_util.hpp"
 
 #include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -81,6 +83,9 @@ int main(int argc, char** argv) {
   app.add_flag("--world", world, "print the world-frame pose instead of the camera-frame pose");
   CLI11_PARSE(app, argc, argv);
 
+  // stdout carries only pose lines (for piping into a controller); diagnostics go to stderr.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("mfot-pose-client"));
+  mfot::service::setup_logging("pose-client", 0);
   lcm::LCM lcm(mfot::service::lcm_url(url));
   if (!lcm.good()) {
     std::cerr << "mfot-pose-client: LCM initialisation failed for " << mfot::service::lcm_url(url) << '\n';

@@ -65,13 +65,14 @@ class PipelineTest(unittest.TestCase):
             ev = summary.get("evaluation")
             self.assertIsNotNone(ev, summary.get("evaluation_error"))
             print(json.dumps(ev, indent=1)[:3000])
-            self.assertGreater(ev["segmentation_accuracy"], 0.9)
+            self.assertGreater(ev["segmentation"]["accuracy"], 0.9)
+            self.assertEqual(ev["tracks_lost"], 0)
             for obj in ev["objects"]:
-                if obj.get("is_hand"):
+                if obj["is_hand"]:
                     continue
-                self.assertIsNotNone(obj.get("pred_id"), f"ground-truth object {obj.get('gt_id')} was never tracked")
-                self.assertLess(obj["translation_mm"]["median"], 10.0, obj)
-                self.assertLess(obj["rotation_deg"]["median"], 5.0, obj)
+                self.assertFalse(obj["lost"], obj)
+                self.assertLess(obj["pose_error"]["translation_median_mm"], 10.0, obj)
+                self.assertLess(obj["pose_error"]["rotation_median_deg"], 5.0, obj)
 
     def test_lockstep_replay_is_bit_identical(self):
         with tempfile.TemporaryDirectory() as tmp:
