@@ -16,6 +16,7 @@
 #include "mfot/sim/scene.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -59,6 +60,7 @@ float triangular(std::uint64_t h) {
 // [planes, planes + primitives): a primitive. face: box face 0..5 (+x, -x, +y, -y, +z, -z) or
 // cylinder part (0 side, 4 top, 5 bottom).
 struct Hit {
+  float ray_x = 0.0f, ray_y = 0.0f;  // the pixel's ray direction (x, y, 1)
   float z = kInf;
   std::int16_t index = -1;
   std::uint8_t face = 0;
@@ -71,35 +73,44 @@ struct Frame3 {  // rotation columns and translation of a pose, as plain floats
 
 Frame3 frame_of(const Pose& p) { return {p.rotation.normalized().toRotationMatrix(), p.translation}; }
 
-// Conservative pixel rectangle of a local axis-aligned box [-h, h] posed by f; false if wholly
-// behind the camera. Corners behind the near plane make the rectangle the whole image.
+// Conservative pixel rectangle of a local axis-aligned box [-h, h] posed by f: the projection of
+// the box clipped at the near plane z = kNear. False if the box lies wholly behind it or off-image.
 bool screen_rect(const Frame3& f, const Eigen::Vector3f& half, const CameraIntrinsics& cam, float margin_px,
                  int& u0, int& v0, int& u1, int& v1) {
-  float umin = kInf, vmin = kInf, umax = -kInf, vmax = -kInf;
-  int behind = 0;
+  constexpr float kNear = 0.01f;
+  std::array<Eigen::Vector3f, 8> corners;
   for (int c = 0; c < 8; ++c) {
     const Eigen::Vector3f local((c & 1) ? half.x() : -half.x(), (c & 2) ? half.y() : -half.y(),
                                 (c & 4) ? half.z() : -half.z());
-    const Eigen::Vector3f p = f.r * local + f.t;
-    if (p.z() < 1e-3f) {
-      ++behind;
-      continue;
-    }
+    corners[c] = f.r * local + f.t;
+  }
+  float umin = kInf, vmin = kInf, umax = -kInf, vmax = -kInf;
+  auto add = [&](const Eigen::Vector3f& p) {
     const float u = cam.fx * p.x() / p.z() + cam.cx, v = cam.fy * p.y() / p.z() + cam.cy;
     umin = std::min(umin, u);
     umax = std::max(umax, u);
     vmin = std::min(vmin, v);
     vmax = std::max(vmax, v);
+  };
+  for (const Eigen::Vector3f& p : corners) {
+    if (p.z() >= kNear) add(p);
   }
-  if (behind == 8) return false;
-  if (behind > 0) {
-    u0 = 0, v0 = 0, u1 = cam.width - 1, v1 = cam.height - 1;
-    return true;
+  // Edges (corner pairs differing in one bit) that cross the near plane add their crossing point.
+  for (int a = 0; a < 8; ++a) {
+    for (int bit = 1; bit < 8; bit <<= 1) {
+      const int b = a | bit;
+      if (b == a) continue;
+      const Eigen::Vector3f& pa = corners[a];
+      const Eigen::Vector3f& pb = corners[b];
+      if ((pa.z() < kNear) == (pb.z() < kNear)) continue;
+      add(pa + (pb - pa) * ((kNear - pa.z()) / (pb.z() - pa.z())));
+    }
   }
-  u0 = std::max(0, static_cast<int>(std::floor(umin - margin_px)));
-  v0 = std::max(0, static_cast<int>(std::floor(vmin - margin_px)));
-  u1 = std::min(cam.width - 1, static_cast<int>(std::ceil(umax + margin_px)));
-  v1 = std::min(cam.height - 1, static_cast<int>(std::ceil(vmax + margin_px)));
+  if (!(umin <= umax)) return false;
+  u0 = static_cast<int>(std::max(0.0f, std::floor(umin - margin_px)));
+  v0 = static_cast<int>(std::max(0.0f, std::floor(vmin - margin_px)));
+  u1 = static_cast<int>(std::min(static_cast<float>(cam.width - 1), std::ceil(umax + margin_px)));
+  v1 = static_cast<int>(std::min(static_cast<float>(cam.height - 1), std::ceil(vmax + margin_px)));
   return u0 <= u1 && v0 <= v1;
 }
 
@@ -254,8 +265,9 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
   auto draw = [seed](std::size_t i, std::uint64_t stream) { return mix64(seed + 4 * static_cast<std::uint64_t>(i) + stream); };
 
   // 1. Rays.
-  std::vector<float> ray_x(n), ray_y(n);
+  std::vector<Hit> hits(n);
   const float jitter = noise ? sensor.lateral_jitter_px : 0.0f;
+  const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * w + u;
@@ -265,33 +277,43 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
         du = jitter * triangular(r);
         dv = jitter * triangular(r >> 32);
       }
-      ray_x[i] = (static_cast<float>(u) + du - cam.cx) / cam.fx;
-      ray_y[i] = (static_cast<float>(v) + dv - cam.cy) / cam.fy;
+      hits[i].ray_x = (static_cast<float>(u) + du - cam.cx) * inv_fx;
+      hits[i].ray_y = (static_cast<float>(v) + dv - cam.cy) * inv_fy;
     }
   }
 
-  std::vector<Hit> hits(n);
+  // 2. Planes, all in one pass over the pixels.
   const int num_planes = static_cast<int>(scene.planes.size());
-
-  // 2. Planes.
+  struct PlaneRay {  // plane terms of the ray test, camera frame
+    Eigen::Vector3f normal, ex, ey;
+    float n_dot_p0, ex_p0, ey_p0, half_x, half_y;
+    std::int16_t index;
+  };
   std::vector<Frame3> plane_frames;
+  std::vector<PlaneRay> visible_planes;
   for (int k = 0; k < num_planes; ++k) {
     const Plane& plane = scene.planes[k];
     const Frame3 f = frame_of(plane.pose);
     plane_frames.push_back(f);
-    const Eigen::Vector3f nrm = f.r.col(2), ex = f.r.col(0), ey = f.r.col(1);
-    const float n_dot_p0 = nrm.dot(f.t);
+    const float n_dot_p0 = f.r.col(2).dot(f.t);
     if (n_dot_p0 >= 0.0f) continue;  // camera behind the plane: its front side is invisible
-    const bool bounded_x = plane.half_extent_x > 0.0f, bounded_y = plane.half_extent_y > 0.0f;
-    const float ex_p0 = ex.dot(f.t), ey_p0 = ey.dot(f.t);
-    for (std::size_t i = 0; i < n; ++i) {
-      const float denom = nrm.x() * ray_x[i] + nrm.y() * ray_y[i] + nrm.z();
-      if (denom >= 0.0f) continue;
-      const float t = n_dot_p0 / denom;
-      if (t >= hits[i].z) continue;
-      if (bounded_x && std::abs(t * (ex.x() * ray_x[i] + ex.y() * ray_y[i] + ex.z()) - ex_p0) > plane.half_extent_x) continue;
-      if (bounded_y && std::abs(t * (ey.x() * ray_x[i] + ey.y() * ray_y[i] + ey.z()) - ey_p0) > plane.half_extent_y) continue;
-      hits[i] = {t, static_cast<std::int16_t>(k), 0};
+    visible_planes.push_back({f.r.col(2), f.r.col(0), f.r.col(1), n_dot_p0, f.r.col(0).dot(f.t), f.r.col(1).dot(f.t),
+                              plane.half_extent_x > 0.0f ? plane.half_extent_x : kInf,
+                              plane.half_extent_y > 0.0f ? plane.half_extent_y : kInf, static_cast<std::int16_t>(k)});
+  }
+  if (!visible_planes.empty()) {
+    for (Hit& hit : hits) {
+      const float x = hit.ray_x, y = hit.ray_y;
+      for (const PlaneRay& pl : visible_planes) {
+        const float denom = pl.normal.x() * x + pl.normal.y() * y + pl.normal.z();
+        if (denom >= 0.0f) continue;
+        const float t = pl.n_dot_p0 / denom;
+        if (t >= hit.z) continue;
+        if (std::abs(t * (pl.ex.x() * x + pl.ex.y() * y + pl.ex.z()) - pl.ex_p0) > pl.half_x) continue;
+        if (std::abs(t * (pl.ey.x() * x + pl.ey.y() * y + pl.ey.z()) - pl.ey_p0) > pl.half_y) continue;
+        hit.z = t;
+        hit.index = pl.index;
+      }
     }
   }
 
@@ -313,15 +335,20 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
     const auto index = static_cast<std::int16_t>(num_planes + static_cast<int>(k));
     const bool is_box = prim.kind == PrimitiveKind::box;
     for (int v = v0; v <= v1; ++v) {
+      Hit* row = hits.data() + static_cast<std::size_t>(v) * w;
       for (int u = u0; u <= u1; ++u) {
-        const std::size_t i = static_cast<std::size_t>(v) * w + u;
-        const float x = ray_x[i], y = ray_y[i];
+        Hit& px = row[u];
+        const float x = px.ray_x, y = px.ray_y;
         const float d[3] = {rt(0, 0) * x + rt(0, 1) * y + rt(0, 2), rt(1, 0) * x + rt(1, 1) * y + rt(1, 2),
                             rt(2, 0) * x + rt(2, 1) * y + rt(2, 2)};
         float t = 0.0f;
         std::uint8_t face = 0;
         const bool hit = is_box ? intersect_box(org, d, hh, t, face) : intersect_cylinder(org, d, hh[0], hh[2], t, face);
-        if (hit && t < hits[i].z) hits[i] = {t, index, face};
+        if (hit && t < px.z) {
+          px.z = t;
+          px.index = index;
+          px.face = face;
+        }
       }
     }
   }
@@ -333,27 +360,45 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
   frame.color.assign(n, Rgb8{});
   frame.labels.assign(n, 0);
   const Eigen::Vector3f light = scene.light_direction.normalized();
+  auto shade_of = [&](const Eigen::Vector3f& normal) {
+    return scene.ambient + (1.0f - scene.ambient) * std::max(0.0f, normal.dot(light));
+  };
+  struct PlaneShading {  // per plane: constant shade, checker coordinates u = a . p - b
+    float shade;
+    Eigen::Vector3f au, av;
+    float bu, bv;
+  };
+  std::vector<PlaneShading> plane_shading;
+  for (int k = 0; k < num_planes; ++k) {
+    const Frame3& f = plane_frames[k];
+    const float inv_tile = scene.planes[k].tile_m > 0.0f ? 1.0f / scene.planes[k].tile_m : 0.0f;
+    plane_shading.push_back({shade_of(f.r.col(2)), f.r.col(0) * inv_tile, f.r.col(1) * inv_tile,
+                             f.r.col(0).dot(f.t) * inv_tile, f.r.col(1).dot(f.t) * inv_tile});
+  }
   const float cos_max_incidence = std::cos(sensor.max_incidence_deg * 3.14159265f / 180.0f);
+  const float cos2_max_incidence = cos_max_incidence * cos_max_incidence;
   const float fb = cam.fx * sensor.baseline_m;  // disparity (pixels) * depth (m)
   const float color_sigma = noise ? sensor.color_sigma : 0.0f;
+  const float inv_quantum = sensor.depth_quantum_m > 0.0f ? 1.0f / sensor.depth_quantum_m : 0.0f;
   for (std::size_t i = 0; i < n; ++i) {
     const Hit& hit = hits[i];
     if (hit.index < 0) continue;
-    const Eigen::Vector3f dir(ray_x[i], ray_y[i], 1.0f);
+    const Eigen::Vector3f dir(hit.ray_x, hit.ray_y, 1.0f);
     const Eigen::Vector3f p = hit.z * dir;
     Eigen::Vector3f normal;
     Rgb8 albedo;
+    float shade = 0.0f;
     if (hit.index < num_planes) {
       const Plane& plane = scene.planes[hit.index];
-      const Frame3& f = plane_frames[hit.index];
-      normal = f.r.col(2);
+      const PlaneShading& ps = plane_shading[hit.index];
+      normal = plane_frames[hit.index].r.col(2);
       albedo = plane.color_a;
       if (plane.tile_m > 0.0f) {
-        const Eigen::Vector3f q = p - f.t;
-        const auto cu = static_cast<long>(std::floor(f.r.col(0).dot(q) / plane.tile_m));
-        const auto cv = static_cast<long>(std::floor(f.r.col(1).dot(q) / plane.tile_m));
+        const auto cu = static_cast<long>(std::floor(ps.au.dot(p) - ps.bu));
+        const auto cv = static_cast<long>(std::floor(ps.av.dot(p) - ps.bv));
         if ((cu + cv) & 1) albedo = plane.color_b;
       }
+      shade = ps.shade;
       frame.labels[i] = plane.label;
     } else {
       const int k = hit.index - num_planes;
@@ -362,9 +407,9 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
       Eigen::Vector3f local_normal;
       albedo = primitive_albedo(prim, f.r.transpose() * (p - f.t), hit.face, local_normal);
       normal = f.r * local_normal;
+      shade = shade_of(normal);
       frame.labels[i] = prim.label;
     }
-    const float shade = scene.ambient + (1.0f - scene.ambient) * std::max(0.0f, normal.dot(light));
     Rgb8 c = scale_color(albedo, shade);
     if (color_sigma > 0.0f) {
       const std::uint64_t r = draw(i, 2);
@@ -380,43 +425,47 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
 
     float z = hit.z;
     if (noise) {
-      const float cos_incidence = std::abs(normal.dot(dir)) / dir.norm();
-      if (cos_incidence < cos_max_incidence) continue;
+      const float n_dot_d = normal.dot(dir);
+      if (n_dot_d * n_dot_d < cos2_max_incidence * dir.squaredNorm()) continue;
       z += axial_sigma(sensor, z) * gauss4(draw(i, 1));
       if (sensor.disparity_quantisation && z > 0.0f) {
-        const float disparity = std::round(fb / z / sensor.disparity_step_px) * sensor.disparity_step_px;
+        const float disparity = std::floor(fb / z / sensor.disparity_step_px + 0.5f) * sensor.disparity_step_px;
         z = disparity > 0.0f ? fb / disparity : kInf;
       }
-      if (sensor.depth_quantum_m > 0.0f) z = std::round(z / sensor.depth_quantum_m) * sensor.depth_quantum_m;
+      if (sensor.depth_quantum_m > 0.0f) z = std::floor(z * inv_quantum + 0.5f) * sensor.depth_quantum_m;
     }
     if (!(z >= sensor.min_range_m && z <= sensor.max_range_m)) continue;
-    frame.depth_mm[i] = static_cast<std::uint16_t>(std::lround(z * 1000.0f));
+    frame.depth_mm[i] = static_cast<std::uint16_t>(z * 1000.0f + 0.5f);
   }
 
-  // 5b. Far side of depth discontinuities: min filter of the true depth over the band (separable).
+  // 5b. Far side of depth discontinuities: min filter of the true depth over the band, separable
+  // (contiguous rows so the loops vectorise).
   if (noise && sensor.edge_band_px > 0) {
     const int band = sensor.edge_band_px;
-    std::vector<float> row_min(n), near(n);
+    std::vector<float> depth(n), row_min(n);
+    for (std::size_t i = 0; i < n; ++i) depth[i] = hits[i].z;
     for (int v = 0; v < h; ++v) {
-      const std::size_t row = static_cast<std::size_t>(v) * w;
-      for (int u = 0; u < w; ++u) {
-        float m = kInf;
-        for (int du = std::max(0, u - band); du <= std::min(w - 1, u + band); ++du) m = std::min(m, hits[row + du].z);
-        row_min[row + u] = m;
+      const float* in = depth.data() + static_cast<std::size_t>(v) * w;
+      float* out = row_min.data() + static_cast<std::size_t>(v) * w;
+      std::copy(in, in + w, out);
+      for (int d = 1; d <= band && d < w; ++d) {
+        for (int u = d; u < w; ++u) out[u] = std::min(out[u], in[u - d]);
+        for (int u = 0; u + d < w; ++u) out[u] = std::min(out[u], in[u + d]);
       }
     }
+    // Column pass back into depth, which now holds the band minimum.
     for (int v = 0; v < h; ++v) {
-      for (int u = 0; u < w; ++u) {
-        float m = kInf;
-        for (int dv = std::max(0, v - band); dv <= std::min(h - 1, v + band); ++dv) {
-          m = std::min(m, row_min[static_cast<std::size_t>(dv) * w + u]);
-        }
-        near[static_cast<std::size_t>(v) * w + u] = m;
+      float* out = depth.data() + static_cast<std::size_t>(v) * w;
+      std::copy(row_min.data() + static_cast<std::size_t>(v) * w, row_min.data() + static_cast<std::size_t>(v + 1) * w, out);
+      for (int dv = std::max(0, v - band); dv <= std::min(h - 1, v + band); ++dv) {
+        const float* in = row_min.data() + static_cast<std::size_t>(dv) * w;
+        for (int u = 0; u < w; ++u) out[u] = std::min(out[u], in[u]);
       }
     }
+    const float jump = sensor.discontinuity_m, jump_rel = 1.0f - sensor.discontinuity_rel;
     for (std::size_t i = 0; i < n; ++i) {
-      const float z = hits[i].z;
-      if (z != kInf && near[i] < z - (sensor.discontinuity_m + sensor.discontinuity_rel * z)) frame.depth_mm[i] = 0;
+      // z - (jump + rel z) = (1 - rel) z - jump; an empty pixel (z = inf) never compares true here.
+      if (depth[i] < jump_rel * hits[i].z - jump) frame.depth_mm[i] = 0;
     }
   }
   return frame;

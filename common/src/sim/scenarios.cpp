@@ -113,50 +113,55 @@ Script stack_scenario() {
 Script contact_scenario() {
   ScriptBuilder b;
   Bodies s;
-  const Eigen::Vector3f left_size(0.08f, 0.08f, 0.10f), right_size(0.10f, 0.07f, 0.08f);
+  const Eigen::Vector3f left_size(0.08f, 0.08f, 0.10f), right_size(0.10f, 0.07f, 0.09f);
   const int left = s.add(b,
                          make_box(1, left_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker,
                                   kWhite, 0.04f),
                          at(-0.20f, 0.10f, 0.5f * left_size.z()));
   const int right = s.add(b, make_box(2, right_size, {kOrange, kCyan, kMagenta, kLime, kPurple, kPink}),
                           at(0.20f, 0.10f, 0.5f * right_size.z()));
-  s.add(b, make_can(3, 0.06f, 0.10f, kGreen, kYellow, kGrey), at(0.0f, -0.12f, 0.05f));
-  // Hands come from across the table (top of the image), fingers pointing at the camera.
-  const float yaw = -0.5f * kPi;
-  const Iso left_home = at(-0.20f, 0.95f, 0.60f, yaw), right_home = at(0.20f, 0.95f, 0.60f, yaw);
-  const int hand_l = s.add(b, make_hand(101), left_home);
-  const int hand_r = s.add(b, make_hand(102), right_home);
+  s.add(b, make_can(3, 0.06f, 0.10f, kGreen, kYellow, kGrey), at(0.02f, 0.40f, 0.05f));
+  // Hands come from the image sides and hold the objects by their outer faces, so the faces
+  // that meet stay free; the arms lead back towards the camera.
+  const Iso grasp_l = side_grasp(s.infos.bodies[left].info, b.pose(left), -1.0f);
+  const Iso grasp_r = side_grasp(s.infos.bodies[right].info, b.pose(right), 1.0f);
+  auto shifted = [](const Iso& pose, float dx) {
+    Iso t = pose;
+    t.translation().x() += dx;
+    return t;
+  };
+  const Iso left_home = shifted(grasp_l, -0.50f), right_home = shifted(grasp_r, 0.50f);
+  const int hand_l = s.add(b, make_hand(101, {0.0f, -1.0f, 0.0f}), left_home);
+  const int hand_r = s.add(b, make_hand(102, {0.0f, 1.0f, 0.0f}), right_home);
 
   b.wait(1.0);
-  const Iso grasp_l = top_grasp(s.infos.bodies[left].info, b.pose(left), yaw);
-  const Iso grasp_r = top_grasp(s.infos.bodies[right].info, b.pose(right), yaw);
-  b.move({{hand_l, raised(grasp_l, kApproach)}, {hand_r, raised(grasp_r, kApproach)}});
+  b.move({{hand_l, shifted(grasp_l, -kApproach)}, {hand_r, shifted(grasp_r, kApproach)}});
   b.move({{hand_l, grasp_l}, {hand_r, grasp_r}});
   b.wait(0.3);
   b.grasp(hand_l, left);
   b.grasp(hand_r, right);
 
-  // Slide both along the table until their faces touch at x = 0.
+  // Slide both along the table until their faces touch at x = dx.
   const float gap = 0.0005f;
-  auto both_to = [&](float dx, float dy) {
+  auto both_to = [&](float dx, float dy, float min_duration) {
     const Iso l = at(-0.5f * left_size.x() - gap + dx, 0.10f + dy, 0.5f * left_size.z());
     const Iso r = at(0.5f * right_size.x() + gap + dx, 0.10f + dy, 0.5f * right_size.z());
-    b.move({{hand_l, b.hand_target_for(hand_l, l)}, {hand_r, b.hand_target_for(hand_r, r)}}, 0.8);
+    b.move({{hand_l, b.hand_target_for(hand_l, l)}, {hand_r, b.hand_target_for(hand_r, r)}}, min_duration);
   };
-  both_to(0.0f, 0.0f);
+  both_to(0.0f, 0.0f, 0.8);
   b.wait(0.5);
-  both_to(0.0f, 0.12f);   // pushed together, away from the camera
-  both_to(0.08f, 0.06f);
-  both_to(-0.06f, 0.0f);
-  both_to(0.0f, 0.0f);
+  both_to(0.0f, 0.12f, 0.8);  // pushed together, away from the camera
+  both_to(0.08f, 0.06f, 0.8);
+  both_to(-0.06f, 0.0f, 0.8);
+  both_to(0.0f, 0.0f, 0.8);
   b.wait(0.5);
   // Apart again, release, leave.
-  b.move({{hand_l, b.hand_target_for(hand_l, at(-0.20f, 0.10f, 0.5f * left_size.z()))},
-          {hand_r, b.hand_target_for(hand_r, at(0.20f, 0.10f, 0.5f * right_size.z()))}});
+  b.move({{hand_l, b.hand_target_for(hand_l, b.scripted_pose(left, 0.0))},
+          {hand_r, b.hand_target_for(hand_r, b.scripted_pose(right, 0.0))}});
   b.wait(0.3);
   b.release(hand_l);
   b.release(hand_r);
-  b.move({{hand_l, raised(b.pose(hand_l), kApproach)}, {hand_r, raised(b.pose(hand_r), kApproach)}});
+  b.move({{hand_l, shifted(b.pose(hand_l), -kApproach)}, {hand_r, shifted(b.pose(hand_r), kApproach)}});
   b.move({{hand_l, left_home}, {hand_r, right_home}});
   return b.finish(0.8);
 }
@@ -325,24 +330,34 @@ Script random_scenario(const ScenarioOptions& o, int attempt) {
     t += phase + draw(0.3, 1.5);
   }
 
-  // Hands pass over the objects one at a time, hovering 10-18 cm above the tallest object.
+  // Hands pass between the camera and the objects, one hand at a time: each reach hovers in front
+  // of one object, sweeps to another and withdraws. Hover heights clear the tallest object by
+  // 9-14 cm (the fingers hang 9 cm below the palm centre).
   if (o.occlusion > 0.0f) {
     float tallest = 0.0f;
     for (const Placed& p : objects) tallest = std::max(tallest, 2.0f * p.half_height);
+    const Eigen::Vector3f camera = make_world().world_to_camera.inverse().translation();
     const std::array<Iso, 2> homes{at(-0.75f, 0.10f, 0.35f), at(0.75f, 0.10f, 0.35f, kPi)};
     const std::array<int, 2> hands{b.add_body(make_hand(101), homes[0]), b.add_body(make_hand(102), homes[1])};
     const double idle_ratio = (1.0 - o.occlusion) / o.occlusion;
+    const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+    auto frames = [](double s) { return std::ceil(s * kFps - 1e-6) / kFps; };
+    // The hand pose at hover height on the line of sight to a random object at time t.
+    auto in_front_of_an_object = [&](int k, float hover, double t) {
+      const Placed& target = objects[draw.index(static_cast<int>(objects.size()))];
+      Eigen::Vector3f centre = b.scripted_pose(target.body, t).translation();
+      centre.x() += draw.f(-0.04, 0.04);
+      const float s = (camera.z() - hover) / (camera.z() - centre.z());
+      const Eigen::Vector3f p = camera + s * (centre - camera);
+      return at(p.x(), p.y(), hover, k == 0 ? 0.0f : kPi);
+    };
     double th = draw(0.0, 2.0) * (1.0 - o.occlusion);
     while (th < duration) {
       const int k = draw.index(2);
-      const float hover = tallest + draw.f(0.10, 0.18);
-      const float side = k == 0 ? 1.0f : -1.0f;
-      const Iso p1 = at(draw.f(-0.3, 0.3), draw.f(-0.1, 0.35), hover, k == 0 ? 0.0f : kPi);
-      const Iso p2 = at(std::clamp(p1.translation().x() + side * draw.f(0.0, 0.2), -0.3f, 0.3f), draw.f(-0.1, 0.35),
-                        hover, k == 0 ? 0.0f : kPi);
-      const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
-      auto frames = [](double s) { return std::ceil(s * kFps - 1e-6) / kFps; };
+      const float hover = tallest + draw.f(0.09, 0.14);
+      const Iso p1 = in_front_of_an_object(k, hover, th + 2.5);
       const double d1 = frames(std::max(0.5, min_move_duration(homes[k], p1, zero)));
+      const Iso p2 = in_front_of_an_object(k, hover, th + d1 + 1.0);
       const double d2 = frames(std::max(0.5, min_move_duration(p1, p2, zero)));
       const double d3 = frames(std::max(0.5, min_move_duration(p2, homes[k], zero)));
       b.key(hands[k], th, homes[k]);

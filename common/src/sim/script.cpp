@@ -157,7 +157,7 @@ BodyInfo make_can(int id, float diameter, float height, Rgb8 side, Rgb8 stripe, 
   return {id, false, {p}};
 }
 
-BodyInfo make_hand(int id) {
+BodyInfo make_hand(int id, const Eigen::Vector3f& up_local) {
   const Rgb8 skin{222, 176, 146}, skin_dark{205, 158, 128}, sleeve{46, 62, 110};
   const auto label = static_cast<std::uint16_t>(id);
   BodyInfo hand{id, true, {}};
@@ -180,7 +180,8 @@ BodyInfo make_hand(int id) {
   hand.primitives.push_back(fingers);
 
   // Forearm (skin) then upper arm (sleeve) as one straight limb rising 20 degrees from the wrist.
-  const Eigen::Vector3f dir(-std::cos(20.0f * kPi / 180.0f), 0.0f, std::sin(20.0f * kPi / 180.0f));
+  const Eigen::Vector3f dir = -std::cos(20.0f * kPi / 180.0f) * Eigen::Vector3f::UnitX() +
+                              std::sin(20.0f * kPi / 180.0f) * up_local.normalized();
   const Eigen::Quaternionf along = Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), dir);
   const Eigen::Vector3f wrist(-kPalmHalfLength, 0.0f, 0.025f);
   Primitive forearm;
@@ -197,6 +198,21 @@ BodyInfo make_hand(int id) {
   upper.face_colors = {sleeve, sleeve, sleeve, sleeve, sleeve, sleeve};
   hand.primitives.push_back(upper);
   return hand;
+}
+
+Iso side_grasp(const BodyInfo& object, const Iso& object_pose, float side) {
+  const Primitive& p = object.primitives.front();
+  const Eigen::Vector3f half = 0.5f * p.size;
+  const float half_x = half.x();
+  const float half_y = p.kind == PrimitiveKind::box ? half.y() : half.x();
+  // Hand axes in the object frame: fingers +y, back of the hand outwards (side * x), y = z x x.
+  const Eigen::Vector3f x_h = Eigen::Vector3f::UnitY(), z_h = side * Eigen::Vector3f::UnitX();
+  Eigen::Matrix3f axes;
+  axes << x_h, z_h.cross(x_h), z_h;
+  Iso local = Iso::Identity();
+  local.linear() = axes;
+  local.translation() = Eigen::Vector3f(side * (half_x + kPalmHalfThickness), half_y - kPalmHalfLength - 0.002f, 0.0f);
+  return object_pose * local;
 }
 
 float half_height(const BodyInfo& object) { return 0.5f * object.primitives.front().size.z(); }

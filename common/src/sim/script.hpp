@@ -73,6 +73,8 @@ class ScriptBuilder {
   void wait(double seconds);
   // Adds a keyframe at time t without moving the timeline (independent per-body schedules).
   void key(int body, double t, const Iso& pose);
+  // World pose of body at time t under the keyframes and grasps added so far.
+  Iso scripted_pose(int body, double t) const { return pose_at(script_, body, t); }
 
   Script finish(double extra_wait_s);
 
@@ -95,12 +97,18 @@ BodyInfo make_box(int id, const Eigen::Vector3f& size, const std::array<Rgb8, 6>
                   Rgb8 pattern_color = {}, float period_m = 0.04f);
 BodyInfo make_can(int id, float diameter, float height, Rgb8 side, Rgb8 stripe, Rgb8 caps, float period_m = 0.03f);
 // A rigid hand: palm box, bent fingers box, and one cylinder for forearm and upper arm rising
-// 20 degrees from the wrist (hand frame: x along the fingers, z out of the back of the hand).
-BodyInfo make_hand(int id);
+// 20 degrees from the wrist towards up_local (hand frame: x along the fingers, z out of the back of
+// the hand; up_local is z for grasps from above, +-y for grasps from the side).
+BodyInfo make_hand(int id, const Eigen::Vector3f& up_local = Eigen::Vector3f::UnitZ());
 // Hand pose (world) grasping from above an object at object_pose with extent size (body info),
 // fingers pointing along the object's local direction at yaw in its horizontal plane and hanging
 // over the face there, palm resting on the top face.
 Iso top_grasp(const BodyInfo& object, const Iso& object_pose, float yaw);
+
+// Hand pose (world) grasping an upright object from the side: palm vertical against its -x face
+// (side = -1) or +x face (side = +1), fingers pointing away from the camera (+y) and wrapping the
+// far face's edge. Use with make_hand(id, {0, side, 0}) so the arm rises.
+Iso side_grasp(const BodyInfo& object, const Iso& object_pose, float side);
 
 // Half height of a body (objects: primitive extent along local z).
 float half_height(const BodyInfo& object);
