@@ -18,16 +18,16 @@ void validate(const CudaJcsdLikelihoodOptions& options) {
     throw std::invalid_argument("CudaJcsdLikelihoodOptions.device must be >= 0, got " +
                                 std::to_string(options.device));
   }
-  if (options.blocks_per_sm < 1 || options.blocks_per_sm > 32) {
-    throw std::invalid_argument("CudaJcsdLikelihoodOptions.blocks_per_sm must be in [1, 32], got " +
-                                std::to_string(options.blocks_per_sm));
+  if (options.items_per_warp < 1 || options.items_per_warp > 16) {
+    throw std::invalid_argument("CudaJcsdLikelihoodOptions.items_per_warp must be in [1, 16], got " +
+                                std::to_string(options.items_per_warp));
   }
 }
 
 CudaJcsdLikelihood::CudaJcsdLikelihood(const CudaJcsdLikelihoodOptions& options) : options_(options) {
   validate(options_);
   device_ = std::make_unique<cuda_detail::JcsdDevice>(
-      cuda_detail::DeviceOptions{options_.device, options_.blocks_per_sm});
+      cuda_detail::DeviceOptions{options_.device, options_.items_per_warp});
 }
 
 CudaJcsdLikelihood::~CudaJcsdLikelihood() = default;

@@ -39,7 +39,7 @@ struct DeviceTiming {
 
 struct DeviceOptions {
   int device = 0;
-  int blocks_per_sm = 4;  // scoring-kernel blocks aimed at per multiprocessor
+  int items_per_warp = 1;  // scoring-kernel work items aimed at per resident warp
 };
 
 class JcsdDevice {

@@ -26,7 +26,6 @@
 #include <ctime>
 #include <fstream>
 #include <memory>
-#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -181,19 +180,20 @@ std::string cpu_model() {
   return "unknown CPU";
 }
 
+// NaN marks a figure that was not measured (printed as n/a).
 struct Row {
   std::string label;
   std::size_t particles = 0, points = 0;
-  std::optional<double> cpu;
-  std::optional<GpuFigures> gpu;
-  std::optional<double> parity;
+  double cpu = NAN;
+  GpuFigures gpu{NAN, NAN, NAN};
+  double parity = NAN;
   double thesis_cpu = NAN, thesis_gpu = NAN;
 };
 
-std::string fmt(std::optional<double> v, int decimals = 3) {
-  if (!v) return "n/a";
+std::string fmt(double v, int decimals = 3, char style = 'f') {
+  if (std::isnan(v)) return "n/a";
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, *v);
+  std::snprintf(buf, sizeof buf, style == 'e' ? "%.*e" : "%.*f", decimals, v);
   return buf;
 }
 
@@ -235,7 +235,7 @@ int main(int argc, char** argv) {
   std::printf("GPU: %s\n", device.c_str());
 
   const int cpu_reps = quick ? 3 : 15;
-  const int gpu_reps = quick ? 20 : 200;
+  [[maybe_unused]] const int gpu_reps = quick ? 20 : 200;  // used only with CUDA
   const std::array<std::size_t, 9> counts{10, 20, 50, 100, 200, 500, 1000, 2000, 5000};
   const std::array<double, 9> thesis_cpu{9.7, 16.9, 35, 67, 130, 343, 654, 1445, NAN};
   const std::array<double, 9> thesis_gpu{0.82, 0.93, 1.13, 1.8, 2.35, 3.8, 6.1, 11, NAN};
@@ -248,7 +248,7 @@ int main(int argc, char** argv) {
   mfot::JcsdLikelihood cpu;
   for (std::size_t k = 0; k < counts.size(); ++k) {
     const Scene scene = make_scene(box, kPoints, counts[k], kSigmaT, kSigmaR, 100 + k);
-    Row row{"object", counts[k], scene.data.points.size(), {}, {}, {}, thesis_cpu[k], thesis_gpu[k]};
+    Row row{"object", counts[k], scene.data.points.size(), NAN, {NAN, NAN, NAN}, NAN, thesis_cpu[k], thesis_gpu[k]};
     std::vector<float> cpu_scores(counts[k]);
     cpu.set_model(scene.model);
     if (!(quick && counts[k] > 2000)) row.cpu = cpu_ms(cpu, scene, cpu_reps, cpu_scores);
@@ -269,7 +269,7 @@ int main(int argc, char** argv) {
   // between the particles of a warp.
   {
     const Scene scene = make_scene(box, kPoints, 2000, 0.03f, 0.3f, 300);
-    Row row{"object-wide", 2000, scene.data.points.size(), {}, {}, {}, NAN, NAN};
+    Row row{"object-wide", 2000, scene.data.points.size(), NAN, {NAN, NAN, NAN}, NAN, NAN, NAN};
     std::vector<float> cpu_scores(2000);
     cpu.set_model(scene.model);
     row.cpu = cpu_ms(cpu, scene, cpu_reps, cpu_scores);
@@ -298,7 +298,7 @@ int main(int argc, char** argv) {
       cpus[o] = std::make_unique<mfot::JcsdLikelihood>();
       cpus[o]->set_model(scenes[o].model);
     }
-    Row row{"3-objects", 3000, 6000, {}, {}, {}, NAN, NAN};
+    Row row{"3-objects", 3000, 6000, NAN, {NAN, NAN, NAN}, NAN, NAN, NAN};
     std::vector<float> scores(1000);
     std::vector<double> cpu_times;
     for (int r = 0; r < cpu_reps; ++r) {
@@ -342,6 +342,25 @@ int main(int argc, char** argv) {
     rows.push_back(row);
   }
 
+#if MFOT_HAVE_CUDA
+  // Launch shape: the 2000-particle frame at several work items per resident warp
+  // (CudaJcsdLikelihoodOptions::items_per_warp; the default is 1).
+  if (gpu) {
+    const Scene scene = make_scene(box, kPoints, 2000, kSigmaT, kSigmaR, 107);
+    cpu.set_model(scene.model);
+    std::printf("\nitems_per_warp sweep, 2000 particles x %zu points: kernel ms", scene.data.points.size());
+    for (const int items_per_warp : {1, 2, 4}) {
+      mfot::CudaJcsdLikelihoodOptions options;
+      options.items_per_warp = items_per_warp;
+      mfot::CudaJcsdLikelihood tuned(options);
+      tuned.set_grid(cpu.grid());
+      std::vector<float> scores(2000);
+      std::printf("  %d: %.4f", items_per_warp, gpu_ms(tuned, scene, gpu_reps, scores).kernel_ms);
+    }
+    std::printf("\n");
+  }
+#endif
+
   std::printf("\n%-12s %9s %6s %10s %11s %11s %11s %9s %9s %9s %9s %9s\n", "case", "particles", "points",
               "cpu_ms", "gpu_kern_ms", "gpu_dev_ms", "gpu_wall_ms", "speedup", "spd_kern", "parity",
               "thesis_cpu", "thesis_gpu");
@@ -352,27 +371,17 @@ int main(int argc, char** argv) {
            "max_rel_diff,thesis_cpu_ms,thesis_gpu_ms,gpu,date\n";
   }
   for (const Row& r : rows) {
-    const std::optional<double> kern = r.gpu ? std::optional(r.gpu->kernel_ms) : std::nullopt;
-    const std::optional<double> dev = r.gpu ? std::optional(r.gpu->events_ms) : std::nullopt;
-    const std::optional<double> wall = r.gpu ? std::optional(r.gpu->wall_ms) : std::nullopt;
-    const std::optional<double> speedup = r.cpu && wall ? std::optional(*r.cpu / *wall) : std::nullopt;
-    const std::optional<double> speedup_kernel = r.cpu && kern ? std::optional(*r.cpu / *kern) : std::nullopt;
-    const auto thesis = [](double v) { return std::isnan(v) ? std::optional<double>() : std::optional(v); };
-    std::string parity = "n/a";
-    if (r.parity) {
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "%.1e", *r.parity);
-      parity = buf;
-    }
+    const double speedup = r.cpu / r.gpu.wall_ms;  // NaN when either is missing
+    const double speedup_kernel = r.cpu / r.gpu.kernel_ms;
     std::printf("%-12s %9zu %6zu %10s %11s %11s %11s %9s %9s %9s %9s %9s\n", r.label.c_str(), r.particles, r.points,
-                fmt(r.cpu).c_str(), fmt(kern, 4).c_str(), fmt(dev, 4).c_str(), fmt(wall, 4).c_str(),
-                fmt(speedup, 1).c_str(), fmt(speedup_kernel, 1).c_str(), parity.c_str(),
-                fmt(thesis(r.thesis_cpu), 1).c_str(), fmt(thesis(r.thesis_gpu), 2).c_str());
+                fmt(r.cpu).c_str(), fmt(r.gpu.kernel_ms, 4).c_str(), fmt(r.gpu.events_ms, 4).c_str(),
+                fmt(r.gpu.wall_ms, 4).c_str(), fmt(speedup, 1).c_str(), fmt(speedup_kernel, 1).c_str(),
+                fmt(r.parity, 1, 'e').c_str(), fmt(r.thesis_cpu, 1).c_str(), fmt(r.thesis_gpu, 2).c_str());
     if (csv.is_open()) {
-      csv << r.label << ',' << r.particles << ',' << r.points << ',' << fmt(r.cpu, 4) << ',' << fmt(kern, 5) << ','
-          << fmt(dev, 5) << ',' << fmt(wall, 5) << ',' << fmt(speedup, 2) << ',' << fmt(speedup_kernel, 2) << ','
-          << parity << ',' << fmt(thesis(r.thesis_cpu), 2) << ',' << fmt(thesis(r.thesis_gpu), 2) << ",\"" << device
-          << "\"," << date << '\n';
+      csv << r.label << ',' << r.particles << ',' << r.points << ',' << fmt(r.cpu, 4) << ',' << fmt(r.gpu.kernel_ms, 5)
+          << ',' << fmt(r.gpu.events_ms, 5) << ',' << fmt(r.gpu.wall_ms, 5) << ',' << fmt(speedup, 2) << ','
+          << fmt(speedup_kernel, 2) << ',' << fmt(r.parity, 2, 'e') << ',' << fmt(r.thesis_cpu, 2) << ','
+          << fmt(r.thesis_gpu, 2) << ",\"" << device << "\"," << date << '\n';
     }
   }
   std::printf("\ncpu_ms: JcsdLikelihood, 1 thread. gpu_kern_ms: scoring kernel (CUDA events). gpu_dev_ms: uploads +\n"

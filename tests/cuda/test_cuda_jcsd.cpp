@@ -55,9 +55,9 @@ class CudaJcsd : public ::testing::Test {
 
 TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
   CudaJcsdLikelihoodOptions options;
-  options.blocks_per_sm = 0;
+  options.items_per_warp = 0;
   EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument);
-  options.blocks_per_sm = 33;
+  options.items_per_warp = 17;
   EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument);
   options = {};
   options.device = -1;
@@ -70,7 +70,8 @@ TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
 struct ParityCase {
   std::size_t model_points, data_points, particles;
   float sigma_t, sigma_r;
-  int blocks_per_sm;
+  int items_per_warp;
+  float extent = 0.12f;  // model size in metres: 0.5 m puts the grid past shared memory
 };
 
 class CudaJcsdParity : public CudaJcsd, public ::testing::WithParamInterface<ParityCase> {};
@@ -78,9 +79,9 @@ class CudaJcsdParity : public CudaJcsd, public ::testing::WithParamInterface<Par
 TEST_P(CudaJcsdParity, MatchesCpuJcsd) {
   const ParityCase c = GetParam();
   const RandomScene scene = random_scene(c.model_points, c.data_points, c.particles, c.sigma_t, c.sigma_r,
-                                         0x5eed + c.particles * 7 + c.data_points);
+                                         0x5eed + c.particles * 7 + c.data_points, c.extent);
   CudaJcsdLikelihoodOptions options;
-  options.blocks_per_sm = c.blocks_per_sm;
+  options.items_per_warp = c.items_per_warp;
   CudaJcsdLikelihood gpu(options);
   gpu.set_model(scene.model);
   std::vector<float> scores(scene.particles.size(), std::numeric_limits<float>::quiet_NaN());
@@ -98,10 +99,11 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(ParityCase{500, 1, 3, 0.002f, 0.02f, 4},        // one point, three particles
                       ParityCase{900, 100, 31, 0.01f, 0.1f, 4},       // part of one warp
                       ParityCase{900, 900, 33, 0.01f, 0.1f, 4},       // two groups, one lane in the second
-                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 4},     // the Table 4.1 size
+                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 1},     // the Table 4.1 size
                       ParityCase{900, 900, 2000, 0.05f, 0.6f, 1},     // wide spread: many points off the grid
-                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 32}, // many point splits per group
-                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 2}));    // more particles than points
+                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 16}, // many point chunks per group
+                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 2},      // more particles than points
+                      ParityCase{3000, 900, 2000, 0.02f, 0.1f, 1, 0.5f}));  // grid in global memory
 
 TEST_F(CudaJcsd, MatchesTheReferencePointScores) {
   const RandomScene scene = random_scene(700, 400, 40, 0.01f, 0.1f, 11);

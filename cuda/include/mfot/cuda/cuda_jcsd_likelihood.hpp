@@ -18,7 +18,7 @@ class JcsdDevice;
 struct CudaJcsdLikelihoodOptions {
   JcsdGridOptions grid;   // grid built from the model by set_model
   int device = 0;         // CUDA device ordinal, >= 0
-  int blocks_per_sm = 4;  // scoring-kernel blocks aimed at per multiprocessor, [1, 32]
+  int items_per_warp = 1; // scoring-kernel work items (32 particles x a chunk of points) per resident warp, [1, 16]
 };
 
 // Throws std::invalid_argument naming the field when an option is out of range.
