@@ -67,6 +67,31 @@ Pose apply_increment(const Pose& pose, const PoseVector& increment) {
   return out;
 }
 
+Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weights,
+                        const Eigen::Quaternionf& reference) {
+  if (poses.size() != weights.size() || poses.empty()) {
+    throw std::invalid_argument("weighted_pose_mean: poses and weights must be non-empty and equally long");
+  }
+  double total = 0.0;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Matrix4d outer = Eigen::Matrix4d::Zero();
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const double w = weights[i];
+    total += w;
+    translation += w * poses[i].translation.cast<double>();
+    const Eigen::Vector4d q = poses[i].rotation.coeffs().cast<double>();
+    outer.noalias() += w * q * q.transpose();
+  }
+  if (!(total > 0.0)) throw std::invalid_argument("weighted_pose_mean: weights must sum to > 0");
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> solver(outer);
+  Eigen::Vector4d mean = solver.eigenvectors().col(3);  // eigenvalues ascend: the largest is last
+  if (mean.dot(reference.coeffs().cast<double>()) < 0.0) mean = -mean;
+  Pose out;
+  out.translation = (translation / total).cast<float>();
+  out.rotation.coeffs() = mean.normalized().cast<float>();
+  return out;
+}
+
 ParticleFilter::ParticleFilter(const ParticleFilterOptions& options)
     : options_(validated(options)), rng_(options.seed) {}
 
@@ -155,24 +180,6 @@ void ParticleFilter::diffuse_and_predict() {
   }
 }
 
-Pose ParticleFilter::weighted_mean() const {
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-  Eigen::Matrix4d outer = Eigen::Matrix4d::Zero();
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
-    const double w = weights_[i];
-    translation += w * particles_[i].translation.cast<double>();
-    const Eigen::Vector4d q = particles_[i].rotation.coeffs().cast<double>();  // sign-free in q q^T
-    outer.noalias() += w * q * q.transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> solver(outer);
-  Eigen::Vector4d mean = solver.eigenvectors().col(3);  // eigenvalues ascend: the largest is last
-  if (mean.dot(estimate_.rotation.coeffs().cast<double>()) < 0.0) mean = -mean;
-  Pose out;
-  out.translation = translation.cast<float>();
-  out.rotation.coeffs() = mean.normalized().cast<float>();
-  return out;
-}
-
 const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood) {
   if (!initialised_) throw std::logic_error("ParticleFilter::step called before reset()");
   if (resample_pending_) {
@@ -182,7 +189,7 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   likelihood.evaluate(particles_, data, scores_);
   likelihood_weights(scores_, options_.lambda, weights_);
   const Pose previous = estimate_;
-  estimate_ = weighted_mean();
+  estimate_ = weighted_pose_mean(particles_, weights_, previous.rotation);
   velocity_ = pose_difference(previous, estimate_);
   resample_pending_ = true;
   return estimate_;

@@ -16,13 +16,16 @@ enum class ResamplingScheme {
   kSystematic,   // one uniform offset, N evenly spaced draws: same expectation, lower variance
 };
 
+// Defaults other than num_particles and predicted_fraction come from the synthetic tracking test
+// (tests/core/test_particle_filter.cpp): 3 mm / 1 degree diffusion keeps a 2 cm + 10 degree per
+// frame motion captured once dX is known, and a sharp lambda keeps the weighted mean precise.
 struct ParticleFilterOptions {
   int num_particles = 200;  // [1, 1000000]; the thesis runs 100 to 200
   // Standard deviations of C_init (2.12) over (x, y, z, roll, pitch, yaw): metres, radians; >= 0.
-  PoseVector init_sigma = (PoseVector() << 0.005f, 0.005f, 0.005f, 0.03f, 0.03f, 0.03f).finished();
-  float a = 0.25f;  // weight of dX dX^T in C_t = a dX dX^T + b C_init (2.14); finite, >= 0
+  PoseVector init_sigma = (PoseVector() << 0.003f, 0.003f, 0.003f, 0.0175f, 0.0175f, 0.0175f).finished();
+  float a = 0.02f;  // weight of dX dX^T in C_t = a dX dX^T + b C_init (2.14); finite, >= 0
   float b = 1.f;    // weight of C_init in C_t (2.14); finite, >= 0
-  float lambda = 20.f;  // sharpness of the likelihood weights (3.21); in (0, 1000]
+  float lambda = 80.f;  // sharpness of the likelihood weights (3.21); in (0, 1000]
   ResamplingScheme resampling = ResamplingScheme::kSystematic;
   float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
   std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
@@ -37,6 +40,12 @@ Eigen::Vector3f rpy_from_rotation(const Eigen::Quaternionf& rotation);  // roll,
 PoseVector pose_difference(const Pose& from, const Pose& to);
 // X + dX: translation added, rotation composed on the left (inverse of pose_difference).
 Pose apply_increment(const Pose& pose, const PoseVector& increment);
+
+// Weighted mean pose (2.11): weighted mean translation and the weighted quaternion mean, the
+// eigenvector of the largest eigenvalue of sum w_i q_i q_i^T (invariant to each q_i's sign),
+// returned with the sign closer to `reference`. Weights need not be normalised; sizes must match.
+Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weights,
+                        const Eigen::Quaternionf& reference = Eigen::Quaternionf::Identity());
 
 // SIR particle filter tracking one object's pose (thesis 2.2.2, 3.1). Steps of step():
 //  1. resample from the previous step's weights (multinomial per Algorithm 1, or systematic);
@@ -85,7 +94,6 @@ class ParticleFilter {
   float standard_normal();
   void resample();
   void diffuse_and_predict();
-  Pose weighted_mean() const;
 
   ParticleFilterOptions options_;
   std::mt19937_64 rng_;
