@@ -87,9 +87,18 @@ std::size_t VoxelDownsampler::downsample(std::span<const Eigen::Vector3f> positi
   counts_.clear();
   voxel_of_input_.resize(n);
 
+  // Raster-ordered input visits each voxel in runs of neighbouring pixels: the previous key
+  // saves most table probes.
+  std::uint64_t previous_key = ~std::uint64_t{0};
+  int previous_voxel = -1;
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = positions[i];
-    const int voxel = find_or_insert(key_of(p), source_ids[i]);
+    const std::uint64_t key = key_of(p);
+    if (key != previous_key) {
+      previous_key = key;
+      previous_voxel = find_or_insert(key, source_ids[i]);
+    }
+    const int voxel = previous_voxel;
     voxel_of_input_[i] = voxel;
     sums_[voxel] += p;
     color_sums_[voxel] += Eigen::Vector3i(colors[i].r, colors[i].g, colors[i].b);

@@ -56,10 +56,7 @@ void PreprocessorOptions::validate() const {
 Preprocessor::Preprocessor(PreprocessorOptions options)
     : options_((options.validate(), options)),
       plane_fitter_(options_.plane_fit),
-      voxels_(options_.voxel_size),
-      clusterer_(EuclideanClusterOptions{options_.cluster_tolerance,
-                                         static_cast<std::size_t>(options_.cluster_min_size),
-                                         static_cast<std::size_t>(options_.cluster_max_size)}) {}
+      voxels_(options_.voxel_size) {}
 
 void Preprocessor::reset_plane() {
   plane_ = TablePlane{};
@@ -242,17 +239,6 @@ void Preprocessor::remove_table() {
   plane_ = fitted;
   plane_fitted_share_ = share;
   stats_.plane_inlier_share = split_by_plane(plane_);
-}
-
-void Preprocessor::cluster_voxels() {
-  scene_.num_clusters = 0;
-  if (!options_.cluster || scene_.positions.empty()) {
-    scene_.cluster.assign(scene_.positions.size(), -1);
-    return;
-  }
-  clusterer_.cluster(scene_.positions, clusters_);
-  scene_.cluster.assign(clusters_.cluster_of_point.begin(), clusters_.cluster_of_point.end());
-  scene_.num_clusters = static_cast<int>(clusters_.size());
 }
 
 int Preprocessor::voxel_index_of(const Eigen::Vector3f& p) const { return voxels_.voxel_index_of(p); }

@@ -159,8 +159,11 @@ int main(int argc, char** argv) {
     std::vector<mfot::Rgb8> colors;
     std::vector<std::uint32_t> ids;
     Series ours_ms;
+    double points = 0.0, ours_voxels = 0.0;
+#if MFOT_BENCH_PCL
     Series pcl_ms;
-    double points = 0.0, ours_voxels = 0.0, pcl_voxels = 0.0;
+    double pcl_voxels = 0.0;
+#endif
     for (const auto& f : frames) {
       kept_points(f, options, table, positions, colors, ids, above_only);
       points += static_cast<double>(positions.size());

@@ -1,5 +1,7 @@
 #include "mfot/preprocessing.hpp"
 
+#include "mfot/individuation.hpp"
+
 #include "preprocess_test_scene.hpp"
 
 #include <gtest/gtest.h>
@@ -286,6 +288,31 @@ TEST(Preprocessor, SmallClustersAreRejected) {
   }
   EXPECT_EQ(pin_clusters.size(), 1u);
   for (const int c : pin_clusters) EXPECT_EQ(box_clusters.count(c), 0u);
+}
+
+TEST(Preprocessor, ClustersMatchEuclideanClusterer) {
+  auto scene = test_scene::two_boxes();
+  scene.boxes.push_back(test_scene::Box{{-0.02f, 0.2f, 0.f}, {0.05f, 0.25f, 0.15f}, Rgb8{250, 250, 0}});
+  scene.boxes.push_back(test_scene::Box{{0.061f, 0.2f, 0.f}, {0.1f, 0.25f, 0.05f}, Rgb8{0, 250, 250}});  // 11 mm gap
+  Camera camera;
+  camera.depth_noise_mm = 3.f;
+  const Frame frame = test_scene::render(scene, camera);
+  for (const float tolerance : {0.006f, 0.015f, 0.03f}) {
+    for (const int min_size : {1, 30}) {
+      PreprocessorOptions options;
+      options.cluster_tolerance = tolerance;
+      options.cluster_min_size = min_size;
+      options.cluster_max_size = 1200;
+      Preprocessor preprocessor(options);
+      const SceneCloud& cloud = preprocessor.process(frame.view());
+      EuclideanClusterer reference(EuclideanClusterOptions{tolerance, static_cast<std::size_t>(min_size), 1200});
+      ClusterSet expected;
+      reference.cluster(cloud.positions, expected);
+      ASSERT_EQ(cloud.num_clusters, static_cast<int>(expected.size())) << "tolerance " << tolerance;
+      EXPECT_EQ(cloud.cluster, std::vector<int>(expected.cluster_of_point.begin(), expected.cluster_of_point.end()))
+          << "tolerance " << tolerance << " min size " << min_size;
+    }
+  }
 }
 
 TEST(Preprocessor, RejectsInvalidInput) {

@@ -11,11 +11,11 @@
 //      drops; points more than a margin above it on the camera side survive;
 //   4. voxel downsampling (5 mm leaf): mean position and mean colour per voxel, one source pixel
 //      per voxel (the first in raster order), voxels ordered by that pixel;
-//   5. Euclidean clustering of the voxels (EuclideanClusterer: connectivity within a tolerance,
-//      size limits; clusters numbered by their first voxel).
+//   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
+//      within size limits, numbered by their first voxel (EuclideanClusterer's result, computed
+//      by a grid union-find, about 5x faster on 5 mm voxels).
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
 
-#include "mfot/individuation.hpp"
 #include "mfot/types.hpp"
 
 #include <Eigen/Core>
@@ -224,12 +224,11 @@ class Preprocessor {
   // of cropped points within the inlier band.
   float split_by_plane(const TablePlane& plane);
   void cluster_voxels();
+  int find_cluster_cell(const Eigen::Vector3i& cell) const;
 
   PreprocessorOptions options_;
   PlaneFitter plane_fitter_;
   VoxelDownsampler voxels_;
-  EuclideanClusterer clusterer_;
-  ClusterSet clusters_;
   TablePlane plane_;
   float plane_fitted_share_ = 0.f;
 
@@ -253,6 +252,19 @@ class Preprocessor {
   bool kept_all_cropped_ = false;  // no plane removed: the cropped buffers are the kept points
 
   std::vector<int> pixel_voxel_;
+
+  // Clustering scratch (preprocess_cluster.cpp).
+  std::vector<std::uint64_t> cell_slot_keys_;
+  std::vector<int> cell_slot_ids_;
+  std::size_t cell_slot_mask_ = 0;
+  std::vector<Eigen::Vector3i> cell_coords_;
+  std::vector<int> cell_start_;
+  std::vector<int> cell_fill_;
+  std::vector<int> point_cell_;
+  std::vector<Eigen::Vector3f> sorted_positions_;
+  std::vector<int> sorted_to_point_;
+  std::vector<int> union_parent_;
+  std::vector<int> component_size_;
 
   SceneCloud scene_;
   PreprocessStats stats_;

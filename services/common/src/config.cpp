@@ -48,7 +48,7 @@ std::string ConfigSection::choice(const std::string& key, std::string default_va
 std::vector<double> ConfigSection::get_vector(const std::string& key, std::vector<double> default_value,
                                               std::size_t size) {
   const YAML::Node value = lookup(key);
-  if (!value) return default_value;
+  if (!value || value.IsNull()) return default_value;
   if (!value.IsSequence() || value.size() != size) {
     throw ConfigError(qualified(key) + ": expected a list of " + std::to_string(size) + " numbers" + line_of(value));
   }

@@ -29,7 +29,7 @@ class ConfigSection {
   template <class T>
   T get(const std::string& key, T default_value) {
     const YAML::Node value = lookup(key);
-    if (!value) return default_value;
+    if (!value || value.IsNull()) return default_value;  // lookup() gives a Null node for absent keys
     try {
       return value.as<T>();
     } catch (const YAML::Exception&) {

@@ -1,0 +1,196 @@
+// mfot-preprocess: frame -> scene cloud (thesis chapter 4 preprocessing, see
+// mfot/preprocessing.hpp). Subscribes frame_t on MFOT_FRAME, runs the Preprocessor (crop, table
+// removal, 5 mm voxels, Euclidean clusters) and publishes scene_cloud_t on MFOT_SCENE. Frames
+// that arrive while one is processed are replaced by the newest (counted as dropped); malformed
+// frames are counted and dropped.
+
+#include "mfot/frame_t.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/status.hpp"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <string>
+#include <utility>
+
+namespace mfot::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Eigen::Vector3f vector3(const std::vector<double>& v) {
+  return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+}
+
+// The `preprocess` section; every key is documented in configs/preprocess.example.yaml.
+PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
+  PreprocessorOptions o;
+  auto s = config_section(root, "preprocess");
+  o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
+  o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
+  o.remove_plane = s.get<bool>("remove_plane", o.remove_plane);
+  o.plane_fit.iterations = s.get<int>("ransac_iterations", o.plane_fit.iterations, 1, 100000);
+  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", o.plane_fit.sample_points, 3, 1000000);
+  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", o.plane_fit.inlier_distance, 1e-4f, 0.5f);
+  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", o.plane_fit.min_inlier_share, 1e-3f, 1.f);
+  o.plane_fit.seed = s.get<std::uint64_t>("seed", o.plane_fit.seed);
+  o.plane_margin = s.get<float>("plane_margin", o.plane_margin, 0.f, 0.5f);
+  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", o.plane_keep_ratio, 1e-3f, 1.f);
+  o.voxel_size = s.get<float>("voxel_size", o.voxel_size, 1e-4f, 1.f);
+  o.cluster = s.get<bool>("cluster", o.cluster);
+  o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
+  o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
+  o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
+  s.finish();
+  try {
+    o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("preprocess: ") + e.what());
+  }
+  return o;
+}
+
+class PreprocessService {
+ public:
+  PreprocessService(lcm::LCM& lcm, const PreprocessorOptions& options)
+      : lcm_(lcm), preprocessor_(options), status_(lcm, "preprocess", 0, "cpu") {
+    lcm_.subscribe(channel::kFrame, &PreprocessService::on_frame, this);
+  }
+
+  void run() {
+    while (!stop_requested()) {
+      if (!handle_for(lcm_, 5)) {
+        if (stop_requested()) break;  // the signal interrupted the wait
+        spdlog::error("LCM receive failed; stopping");
+        break;
+      }
+      // Drain what is queued, then work on the newest frame only.
+      int queued = 0;
+      while (lcm_.handleTimeout(0) > 0) ++queued;
+      status_.set_queue_depth(queued);
+      if (has_pending_) {
+        has_pending_ = false;
+        process(pending_);
+      }
+      status_.tick();
+    }
+  }
+
+ private:
+  void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    if (!decode_message(rbuf, chan, incoming_, status_.malformed())) return;
+    if (has_pending_) {
+      ++dropped_;
+      status_.set_message("dropped " + std::to_string(dropped_) + " frames (newest processed)");
+    }
+    std::swap(incoming_, pending_);  // keeps both buffers' capacity
+    has_pending_ = true;
+  }
+
+  void process(const frame_t& message) {
+    const auto start = Clock::now();
+    Frame frame;
+    try {
+      frame = decode_frame(message);
+    } catch (const FrameCodecError& e) {
+      status_.malformed().record(channel::kFrame, "undecodable frame", e.what());
+      return;
+    }
+    const RgbdImageView image{frame.width, frame.height, CameraIntrinsics{frame.fx, frame.fy, frame.cx, frame.cy},
+                              frame.depth_mm, frame.color};
+    try {
+      preprocessor_.process(image);
+    } catch (const std::invalid_argument& e) {
+      status_.malformed().record(channel::kFrame, "invalid frame", e.what());
+      return;
+    }
+    fill_message(message, frame);
+    lcm_.publish(channel::kScene, &out_);
+    status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+  }
+
+  void fill_message(const frame_t& message, const Frame& frame) {
+    const SceneCloud& scene = preprocessor_.scene();
+    const auto n = scene.size();
+    out_.utime = now_utime();
+    out_.frame_seq = message.seq;
+    out_.capture_utime = message.capture_utime;
+    out_.width = frame.width;
+    out_.height = frame.height;
+    out_.fx = frame.fx;
+    out_.fy = frame.fy;
+    out_.cx = frame.cx;
+    out_.cy = frame.cy;
+    out_.voxel_size = preprocessor_.options().voxel_size;
+    for (int i = 0; i < 4; ++i) out_.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
+    out_.num_points = static_cast<std::int32_t>(n);
+    out_.x.resize(n);
+    out_.y.resize(n);
+    out_.z.resize(n);
+    out_.r.resize(n);
+    out_.g.resize(n);
+    out_.b.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      out_.x[i] = scene.positions[i].x();
+      out_.y[i] = scene.positions[i].y();
+      out_.z[i] = scene.positions[i].z();
+      out_.r[i] = scene.colors[i].r;
+      out_.g[i] = scene.colors[i].g;
+      out_.b[i] = scene.colors[i].b;
+    }
+    out_.u.assign(scene.pixel_u.begin(), scene.pixel_u.end());
+    out_.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
+    out_.cluster.assign(scene.cluster.begin(), scene.cluster.end());
+    out_.num_clusters = scene.num_clusters;
+  }
+
+  lcm::LCM& lcm_;
+  Preprocessor preprocessor_;
+  StatusReporter status_;
+  frame_t incoming_;
+  frame_t pending_;
+  bool has_pending_ = false;
+  std::int64_t dropped_ = 0;
+  scene_cloud_t out_{};
+};
+
+}  // namespace
+}  // namespace mfot::service
+
+int main(int argc, char** argv) {
+  using namespace mfot::service;
+  CLI::App app{"mfot-preprocess: RGB-D frames -> table-free, voxelised, clustered scene clouds"};
+  std::string config_path = "configs/default.yaml";
+  std::string lcm_url_arg;
+  app.add_option("--config", config_path, "YAML config (section `preprocess`)");
+  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
+  CLI11_PARSE(app, argc, argv);
+  setup_logging("preprocess", 0);
+  install_signal_handlers();
+  try {
+    const mfot::PreprocessorOptions options = load_preprocess_config(load_config_file(config_path));
+    lcm::LCM lcm(lcm_url(lcm_url_arg));
+    if (!lcm.good()) {
+      spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
+      return 1;
+    }
+    spdlog::info("voxel {} m, crop z [{}, {}] m, table removal {}, clustering {} (tolerance {} m)", options.voxel_size,
+                 options.crop_min.z(), options.crop_max.z(), options.remove_plane ? "on" : "off",
+                 options.cluster ? "on" : "off", options.cluster_tolerance);
+    PreprocessService service(lcm, options);
+    service.run();
+  } catch (const ConfigError& e) {
+    spdlog::error("configuration refused: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("fatal: {}", e.what());
+    return 1;
+  }
+  return 0;
+}
