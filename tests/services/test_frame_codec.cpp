@@ -28,8 +28,9 @@ Frame make_frame(int width = 64, int height = 48) {
       std::uint16_t depth = static_cast<std::uint16_t>(600 + 7 * u + 3 * v);
       if ((u + v) % 17 == 0) depth = 0;
       frame.depth_mm.push_back(depth);
-      frame.color.push_back(Rgb8{static_cast<std::uint8_t>(40 + 2 * u), static_cast<std::uint8_t>(30 + 3 * v),
-                                 static_cast<std::uint8_t>(100 + u / 2 + v / 2)});
+      frame.color.push_back(Rgb8{static_cast<std::uint8_t>(40 + 160 * u / width),
+                                 static_cast<std::uint8_t>(30 + 200 * v / height),
+                                 static_cast<std::uint8_t>(100 + 60 * (u + v) / (width + height))});
     }
   }
   frame.depth_mm[1] = 65535;
@@ -130,7 +131,7 @@ TEST(FrameCodec, JpegStaysWithinToleranceAndQualityTradesSize) {
   double total = 0.0;
   int worst = 0;
   for (std::size_t i = 0; i < frame.color.size(); ++i) {
-    for (const auto [a, b] : {std::pair{frame.color[i].r, decoded.color[i].r}, std::pair{frame.color[i].g, decoded.color[i].g},
+    for (const auto& [a, b] : {std::pair{frame.color[i].r, decoded.color[i].r}, std::pair{frame.color[i].g, decoded.color[i].g},
                               std::pair{frame.color[i].b, decoded.color[i].b}}) {
       const int d = std::abs(int{a} - int{b});
       total += d;

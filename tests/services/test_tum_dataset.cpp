@@ -80,6 +80,18 @@ void write_dataset(const std::string& folder, int frames, TumWriterOptions optio
   EXPECT_EQ(writer.frames_written(), static_cast<std::size_t>(frames));
 }
 
+TumReaderOptions reader_options(const std::string& folder) {
+  TumReaderOptions options;
+  options.folder = folder;
+  return options;
+}
+
+TumWriterOptions writer_options(const std::string& folder) {
+  TumWriterOptions options;
+  options.folder = folder;
+  return options;
+}
+
 bool contains(const std::vector<std::string>& messages, const std::string& text) {
   for (const auto& m : messages) {
     if (m.find(text) != std::string::npos) return true;
@@ -95,7 +107,7 @@ void append_line(const std::string& path, const std::string& line) {
 TEST(TumDataset, WrittenFolderReadsBackIdentically) {
   TempFolder temp;
   write_dataset(temp.str("seq"), 3);
-  TumDatasetReader reader(TumReaderOptions{temp.str("seq")});
+  TumDatasetReader reader(reader_options(temp.str("seq")));
   ASSERT_EQ(reader.size(), 3u);
   EXPECT_TRUE(reader.warnings().empty());
   for (int k = 0; k < 3; ++k) {
@@ -124,22 +136,22 @@ TEST(TumDataset, DepthScaleIsApplied) {
   options.depth_scale = 1000.0;
   write_dataset(temp.str("seq"), 1, options);
   // Read with the writer's scale: exact; with the TUM default (5000/m): five times shorter.
-  TumReaderOptions same{temp.str("seq")};
+  TumReaderOptions same = reader_options(temp.str("seq"));
   same.depth_scale = 1000.0;
   EXPECT_EQ(TumDatasetReader(same).read(0)->depth_mm, make_frame(0).depth_mm);
-  const auto tum = TumDatasetReader(TumReaderOptions{temp.str("seq")}).read(0);
+  const auto tum = TumDatasetReader(reader_options(temp.str("seq"))).read(0);
   ASSERT_TRUE(tum.has_value());
   const auto& original = make_frame(0).depth_mm;
   for (std::size_t i = 0; i < original.size(); ++i) {
     EXPECT_EQ(tum->depth_mm[i], static_cast<std::uint16_t>(std::llround(original[i] / 5.0)));
   }
   // Depth of 13.2 m does not fit the TUM scale's 16 bits and is written as "no measurement".
-  TumDatasetWriter writer(TumWriterOptions{temp.str("far")});
+  TumDatasetWriter writer(writer_options(temp.str("far")));
   Frame far = make_frame(0);
   far.depth_mm[0] = 13200;
   writer.write(far);
   EXPECT_EQ(writer.depth_pixels_clipped(), 1u);
-  EXPECT_EQ(TumDatasetReader(TumReaderOptions{temp.str("far")}).read(0)->depth_mm[0], 0);
+  EXPECT_EQ(TumDatasetReader(reader_options(temp.str("far"))).read(0)->depth_mm[0], 0);
 }
 
 TEST(TumDataset, GroundTruthReadsBack) {
@@ -175,7 +187,7 @@ TEST(TumDataset, GarbageLinesAreSkippedWithFileAndLine) {
   append_line(temp.str("seq/rgb.txt"), "1.5 rgb/a.png extra");
   append_line(temp.str("seq/depth.txt"), "nan depth/x.png");
   append_line(temp.str("seq/groundtruth/poses.csv"), "0,1,2,3");
-  TumDatasetReader reader(TumReaderOptions{temp.str("seq")});
+  TumDatasetReader reader(reader_options(temp.str("seq")));
   EXPECT_EQ(reader.size(), 2u);
   EXPECT_TRUE(contains(reader.warnings(), "rgb.txt:5:"));
   EXPECT_TRUE(contains(reader.warnings(), "rgb.txt:6:"));
@@ -190,7 +202,7 @@ TEST(TumDataset, MissingOrEmptyFolderIsAClearError) {
   TempFolder temp;
   const auto message = [](const std::string& folder) -> std::string {
     try {
-      TumDatasetReader reader(TumReaderOptions{folder});
+      TumDatasetReader reader(reader_options(folder));
     } catch (const DatasetError& e) {
       return e.what();
     }
@@ -209,7 +221,7 @@ TEST(TumDataset, MissingOrEmptyFolderIsAClearError) {
 TEST(TumDataset, UnreadableImagesSkipTheFrameNamingTheFile) {
   TempFolder temp;
   write_dataset(temp.str("seq"), 3);
-  TumDatasetReader reader(TumReaderOptions{temp.str("seq")});
+  TumDatasetReader reader(reader_options(temp.str("seq")));
   ASSERT_EQ(reader.size(), 3u);
   fs::remove(reader.entry(0).rgb_path);
   std::ofstream(reader.entry(1).depth_path, std::ios::trunc) << "not a png";
@@ -227,7 +239,7 @@ TEST(TumDataset, UnreadableImagesSkipTheFrameNamingTheFile) {
 TEST(TumDataset, TruncatedPngIsReportedWithItsPath) {
   TempFolder temp;
   write_dataset(temp.str("seq"), 1);
-  TumDatasetReader reader(TumReaderOptions{temp.str("seq")});
+  TumDatasetReader reader(reader_options(temp.str("seq")));
   const std::string path = reader.entry(0).rgb_path;
   fs::resize_file(path, fs::file_size(path) / 2);
   try {
@@ -241,28 +253,28 @@ TEST(TumDataset, TruncatedPngIsReportedWithItsPath) {
 TEST(TumDataset, IntrinsicsComeFromFileOptionsOrTumDefaults) {
   TempFolder temp;
   write_dataset(temp.str("seq"), 1);
-  TumReaderOptions options{temp.str("seq")};
+  TumReaderOptions options = reader_options(temp.str("seq"));
   options.intrinsics = std::array<float, 4>{500.0f, 501.0f, 10.0f, 8.0f};
   const auto overridden = TumDatasetReader(options).read(0);
   EXPECT_EQ(overridden->fx, 500.0f);
   EXPECT_EQ(overridden->cy, 8.0f);
   fs::remove(temp.str("seq/intrinsics.txt"));
-  const auto defaults = TumDatasetReader(TumReaderOptions{temp.str("seq")}).read(0);
+  const auto defaults = TumDatasetReader(reader_options(temp.str("seq"))).read(0);
   EXPECT_EQ(defaults->fx, kTumDefaultFx);
   EXPECT_EQ(defaults->cx, kTumDefaultCx);
   std::ofstream(temp.str("seq/intrinsics.txt")) << "# fx fy cx cy\n1 2 3\n";
-  EXPECT_THROW(TumDatasetReader(TumReaderOptions{temp.str("seq")}), DatasetError);
+  EXPECT_THROW(TumDatasetReader(reader_options(temp.str("seq"))), DatasetError);
 }
 
 TEST(TumDataset, WriterRefusesExistingDatasetsAndNonIncreasingTime) {
   TempFolder temp;
   write_dataset(temp.str("seq"), 1);
-  EXPECT_THROW(TumDatasetWriter(TumWriterOptions{temp.str("seq")}), DatasetError);
-  TumDatasetWriter writer(TumWriterOptions{temp.str("other")});
+  EXPECT_THROW(TumDatasetWriter(writer_options(temp.str("seq"))), DatasetError);
+  TumDatasetWriter writer(writer_options(temp.str("other")));
   writer.write(make_frame(1));
   EXPECT_THROW(writer.write(make_frame(1)), DatasetError);
   EXPECT_THROW(writer.write(make_frame(0)), DatasetError);
-  EXPECT_THROW(TumDatasetWriter(TumWriterOptions{""}), std::invalid_argument);
+  EXPECT_THROW(TumDatasetWriter(writer_options("")), std::invalid_argument);
 }
 
 TEST(TumAssociation, PairsNearestTimesWithinTolerance) {

@@ -236,7 +236,9 @@ std::vector<std::uint8_t> decompress_zlib(const std::uint8_t* data, std::size_t 
   // uncompress2 rejects a null source even for zero bytes.
   static constexpr std::uint8_t kEmpty = 0;
   const int status = uncompress2(out.data(), &out_size, size == 0 ? &kEmpty : data, &in_size);
-  if (status == Z_BUF_ERROR) {
+  // Z_BUF_ERROR with input left over: the stream holds more than expected; with all input
+  // consumed: the stream ended early (truncated).
+  if (status == Z_BUF_ERROR && in_size < size) {
     throw FrameCodecError("zlib data inflates to more than the expected " + std::to_string(expected_size) + " bytes");
   }
   if (status != Z_OK) {

@@ -1,0 +1,57 @@
+#pragma once
+// Settings of the capture service: section `capture` of the config file, overridden by the
+// command line (see configs/capture.example.yaml for every key), and the source factory.
+
+#include "mfot/capture/frame_source.hpp"
+#include "mfot/capture/pacing.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/frame_codec.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace mfot::capture {
+
+struct CaptureSettings {
+  std::string source = "sim";           // sim | tum | oni | openni2
+  RateMode rate = RateMode::kRealtime;
+  double speed = 1.0;                   // real-time playback factor, (0, 100]
+  double lockstep_timeout_s = 5.0;      // wait for MFOT_POSES before warning and moving on, (0, 3600]
+  std::int64_t max_frames = 0;          // frames to publish, 0 = unlimited
+  std::int64_t start_frame = 0;         // first source frame
+  bool loop = false;                    // restart a finite source at its end
+  std::string groundtruth_dir;          // "" = do not write ground truth
+  service::EncodeOptions encoding{service::DepthEncoding::kZlib, service::ColorEncoding::kJpeg, 90, 1};
+
+  // sim
+  std::string scenario = "stack";       // mfot::sim::scenario_names()
+  std::uint64_t seed = 1;
+  int sim_frames = 0;                   // 0 = the scenario's own length
+  bool sim_noise = true;                // Kinect-like sensor noise
+  // tum
+  std::string tum_folder;
+  double depth_scale = 5000.0;          // depth PNG units per metre
+  double max_time_difference_s = 0.02;  // rgb/depth association tolerance
+  // oni
+  std::string oni_file;
+  // openni2
+  std::string device_uri;               // "" = first device found
+  double reopen_max_backoff_s = 10.0;
+
+  // Throws service::ConfigError naming the setting.
+  void validate() const;
+};
+
+// Reads every key of the section (unknown keys are errors) on top of the defaults above;
+// validate() after applying command-line overrides.
+CaptureSettings load_capture_settings(service::ConfigSection section);
+
+// Builds the configured source; throws CaptureError (e.g. missing folder, no camera, OpenNI2
+// not built in) with a message for the user. stop_requested is polled by blocking sources.
+std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::function<bool()> stop_requested);
+
+bool openni2_available();
+
+}  // namespace mfot::capture

@@ -1,0 +1,137 @@
+#include "mfot/capture/capture_settings.hpp"
+
+#include "mfot/capture/sim_source.hpp"
+#include "mfot/capture/tum_source.hpp"
+#ifdef MFOT_HAVE_OPENNI2
+#include "mfot/capture/openni_source.hpp"
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace mfot::capture {
+
+using service::ConfigError;
+
+void CaptureSettings::validate() const {
+  const std::vector<std::string> sources = {"sim", "tum", "oni", "openni2"};
+  if (std::find(sources.begin(), sources.end(), source) == sources.end()) {
+    throw ConfigError("capture.source: '" + source + "' is not one of sim|tum|oni|openni2");
+  }
+  if (!(std::isfinite(speed) && speed > 0.0 && speed <= 100.0)) {
+    throw ConfigError("capture.speed: " + std::to_string(speed) + " is out of range (0, 100]");
+  }
+  if (!(std::isfinite(lockstep_timeout_s) && lockstep_timeout_s > 0.0 && lockstep_timeout_s <= 3600.0)) {
+    throw ConfigError("capture.lockstep_timeout_s: " + std::to_string(lockstep_timeout_s) +
+                      " is out of range (0, 3600]");
+  }
+  if (max_frames < 0) throw ConfigError("capture.max_frames: must be >= 0 (0 = unlimited)");
+  if (start_frame < 0) throw ConfigError("capture.start_frame: must be >= 0");
+  try {
+    encoding.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("capture encoding: ") + e.what());
+  }
+  const auto names = sim::scenario_names();
+  if (std::find(names.begin(), names.end(), scenario) == names.end()) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : "|") + n;
+    throw ConfigError("capture.scenario: '" + scenario + "' is not one of " + list);
+  }
+  if (sim_frames < 0 || sim_frames > 1000000) throw ConfigError("capture.sim_frames: out of range [0, 1000000]");
+  if (source == "tum" && tum_folder.empty()) throw ConfigError("capture.folder: required for source tum (--folder)");
+  if (!(std::isfinite(depth_scale) && depth_scale > 0.0)) throw ConfigError("capture.depth_scale: must be > 0");
+  if (!(std::isfinite(max_time_difference_s) && max_time_difference_s > 0.0)) {
+    throw ConfigError("capture.max_time_difference_s: must be > 0");
+  }
+  if (source == "oni" && oni_file.empty()) throw ConfigError("capture.oni_file: required for source oni (--oni)");
+  if (!(std::isfinite(reopen_max_backoff_s) && reopen_max_backoff_s >= 0.5 && reopen_max_backoff_s <= 600.0)) {
+    throw ConfigError("capture.reopen_max_backoff_s: out of range [0.5, 600]");
+  }
+}
+
+CaptureSettings load_capture_settings(service::ConfigSection section) {
+  CaptureSettings s;
+  s.source = section.choice("source", s.source, {"sim", "tum", "oni", "openni2"});
+  s.rate = parse_rate_mode(section.choice("rate", to_string(s.rate), {"realtime", "fast", "lockstep"}));
+  s.speed = section.get<double>("speed", s.speed, 1e-3, 100.0);
+  s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", s.lockstep_timeout_s, 1e-3, 3600.0);
+  s.max_frames = section.get<long>("max_frames", s.max_frames, 0L, std::numeric_limits<long>::max());
+  s.start_frame = section.get<long>("start_frame", s.start_frame, 0L, std::numeric_limits<long>::max());
+  s.loop = section.get<bool>("loop", s.loop);
+  s.groundtruth_dir = section.get<std::string>("groundtruth_dir", s.groundtruth_dir);
+
+  s.encoding.depth =
+      service::parse_depth_encoding(section.choice("depth_encoding", to_string(s.encoding.depth), {"raw", "zlib"}));
+  s.encoding.color = service::parse_color_encoding(
+      section.choice("color_encoding", to_string(s.encoding.color), {"raw", "jpeg", "png"}));
+  s.encoding.jpeg_quality = section.get<int>("jpeg_quality", s.encoding.jpeg_quality, 1, 100);
+  s.encoding.zlib_level = section.get<int>("zlib_level", s.encoding.zlib_level, 0, 9);
+
+  s.scenario = section.choice("scenario", s.scenario, sim::scenario_names());
+  s.seed = section.get<unsigned long>("seed", s.seed);
+  s.sim_frames = section.get<int>("sim_frames", s.sim_frames, 0, 1000000);
+  s.sim_noise = section.get<bool>("sim_noise", s.sim_noise);
+
+  s.tum_folder = section.get<std::string>("folder", s.tum_folder);
+  s.depth_scale = section.get<double>("depth_scale", s.depth_scale, 1e-3, 1e9);
+  s.max_time_difference_s = section.get<double>("max_time_difference_s", s.max_time_difference_s, 1e-6, 10.0);
+
+  s.oni_file = section.get<std::string>("oni_file", s.oni_file);
+  s.device_uri = section.get<std::string>("device_uri", s.device_uri);
+  s.reopen_max_backoff_s = section.get<double>("reopen_max_backoff_s", s.reopen_max_backoff_s, 0.5, 600.0);
+
+  section.finish();
+  return s;
+}
+
+bool openni2_available() {
+#ifdef MFOT_HAVE_OPENNI2
+  return true;
+#else
+  return false;
+#endif
+}
+
+std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::function<bool()> stop_requested) {
+  settings.validate();
+  if (settings.source == "sim") {
+    sim::SimulatorOptions options;
+    options.scenario.name = settings.scenario;
+    options.scenario.seed = settings.seed;
+    options.scenario.num_frames = settings.sim_frames;
+    options.sensor.noise = settings.sim_noise;
+    try {
+      return std::make_unique<SimSource>(options);
+    } catch (const std::invalid_argument& e) {
+      throw CaptureError(std::string("simulator: ") + e.what());
+    }
+  }
+  if (settings.source == "tum") {
+    service::TumReaderOptions options;
+    options.folder = settings.tum_folder;
+    options.depth_scale = settings.depth_scale;
+    options.max_time_difference_s = settings.max_time_difference_s;
+    try {
+      return std::make_unique<TumSource>(options);
+    } catch (const service::DatasetError& e) {
+      throw CaptureError(e.what());
+    }
+  }
+#ifdef MFOT_HAVE_OPENNI2
+  OpenNiOptions options;
+  options.file = settings.source == "oni";
+  options.uri = options.file ? settings.oni_file : settings.device_uri;
+  options.reopen_max_backoff_s = settings.reopen_max_backoff_s;
+  options.reopen_initial_backoff_s = std::min(options.reopen_initial_backoff_s, options.reopen_max_backoff_s);
+  options.stop_requested = std::move(stop_requested);
+  return std::make_unique<OpenNiSource>(options);
+#else
+  (void)stop_requested;
+  throw CaptureError("source '" + settings.source +
+                     "' needs OpenNI2, but this build has none (configure with -DMFOT_OPENNI2=ON and libopenni2-dev)");
+#endif
+}
+
+}  // namespace mfot::capture
