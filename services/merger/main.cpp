@@ -100,6 +100,7 @@ class Merger {
   void run() {
     while (!stop_requested()) {
       if (!handle_for(lcm_, 5)) {
+        if (stop_requested()) break;  // the signal interrupted the wait
         spdlog::error("LCM receive failed; stopping");
         break;
       }

@@ -88,6 +88,7 @@ class TrackerWorker {
     auto next_heartbeat = Clock::now();
     while (!stop_requested()) {
       if (!handle_for(lcm_, 5)) {
+        if (stop_requested()) break;  // the signal interrupted the wait
         spdlog::error("LCM receive failed; stopping");
         break;
       }
