@@ -179,13 +179,17 @@ std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std
     throw std::invalid_argument("relative_pose_errors: predicted and ground-truth trajectories must have one size");
   }
   std::vector<PoseError> errors(predicted.size());
+  if (predicted.empty()) return errors;
+  // The object's own centre at t0 (the ground-truth origin, a physical point), camera frame.
+  const Eigen::Vector3d centre = ground_truth.front().translation.cast<double>();
   for (std::size_t t = 0; t < predicted.size(); ++t) {
     const Motion p = motion_from(predicted.front(), predicted[t]);
     const Motion g = motion_from(ground_truth.front(), ground_truth[t]);
     const Eigen::Quaterniond delta = g.rotation.conjugate() * p.rotation;
     // Angle from the quaternion as 2 atan2(|v|, |w|): accurate for small angles, too.
     const double angle = 2.0 * std::atan2(delta.vec().norm(), std::abs(delta.w()));
-    errors[t].translation_mm = (p.translation - g.translation).norm() * 1000.0;
+    errors[t].translation_mm = ((p.rotation * centre + p.translation) - (g.rotation * centre + g.translation)).norm() * 1000.0;
+    errors[t].translation_at_camera_mm = (p.translation - g.translation).norm() * 1000.0;
     errors[t].rotation_deg = angle * 180.0 / std::numbers::pi;
   }
   return errors;

@@ -220,6 +220,20 @@ TEST(RelativePoseError, KnownOffset) {
   }
 }
 
+TEST(RelativePoseError, RotationErrorAboutTheObjectDoesNotCountAsTranslation) {
+  // Ground truth: a static object 1 m in front of the camera. Prediction: the same position,
+  // turned 1 degree about the object's own centre. The object's centre does not move, so the
+  // translation error is 0; the camera origin, 1 m away, is carried 1 m x 1 deg = 17.45 mm.
+  std::vector<Pose> truth(2, pose_at({0.f, 0.f, 1.f}));
+  std::vector<Pose> predicted = truth;
+  predicted[1].rotation = Eigen::Quaternionf(Eigen::AngleAxisf(std::numbers::pi_v<float> / 180.f, Eigen::Vector3f::UnitY())) *
+                          predicted[1].rotation;
+  const auto errors = relative_pose_errors(predicted, truth);
+  EXPECT_NEAR(errors[1].translation_mm, 0.0, 1e-3);
+  EXPECT_NEAR(errors[1].rotation_deg, 1.0, 1e-3);
+  EXPECT_NEAR(errors[1].translation_at_camera_mm, 1000.0 * 2.0 * std::sin(std::numbers::pi / 360.0), 1e-2);
+}
+
 TEST(RelativePoseError, Summary) {
   const std::vector<PoseError> errors = {{2.0, 1.0}, {12.0, 0.5}, {4.0, 6.0}, {30.0, 2.0}};
   const PoseErrorSummary s = summarize(errors);
