@@ -22,7 +22,12 @@ SourceFrame to_source_frame(const sim::RenderedFrame& rendered) {
   truth.frame = rendered.index;
   truth.utime = frame.capture_utime;
   for (const auto& pose : rendered.poses) truth.objects.push_back({pose.id, pose.is_hand, pose.pose});
+  // Ground truth of the measured pixels only: a pixel without depth has no 3-D point any
+  // tracker could label, so scoring it would measure the sensor model, not the tracker.
   truth.labels = service::Image16{frame.width, frame.height, rendered.labels};
+  for (std::size_t i = 0; i < truth.labels.pixels.size(); ++i) {
+    if (frame.depth_mm[i] == 0) truth.labels.pixels[i] = 0;
+  }
   out.truth = std::move(truth);
   return out;
 }
