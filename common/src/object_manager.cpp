@@ -14,6 +14,7 @@ void ObjectManagerOptions::validate() const {
   new_objects.validate();
   support.validate();
   if (min_object_points < 1) throw std::invalid_argument("ObjectManagerOptions.min_object_points must be >= 1");
+  if (growth_frames < 0) throw std::invalid_argument("ObjectManagerOptions.growth_frames must be >= 0");
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -96,11 +97,59 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   if (frames_ == 0 && objects_.empty()) {
     for (std::size_t c = 0; c < clusters_.size(); ++c) create_object(scene, clusters_.cluster(c));
   } else {
-    detector_.update(scene.positions, clusters_, segmentation_.labels, confirmed_);
+    for (std::size_t c = 0; c < clusters_.size(); ++c) grow_young_object(scene, clusters_.cluster(c));
+    detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
     for (const int c : confirmed_) create_object(scene, clusters_.cluster(static_cast<std::size_t>(c)));
   }
   ++frames_;
   return frame_;
+}
+
+bool ObjectManager::grow_young_object(const ColoredCloud& scene, std::span<const int> cluster_points) {
+  if (options_.growth_frames == 0) return false;
+  std::int32_t owner = 0;
+  std::size_t free_count = 0;
+  for (const int i : cluster_points) {
+    const std::int32_t label = frame_.labels[static_cast<std::size_t>(i)];
+    if (label == 0) {
+      ++free_count;
+    } else if (owner == 0) {
+      owner = label;
+    } else if (label != owner) {
+      return false;  // the cluster joins several objects (contact): never guess
+    }
+  }
+  if (owner == 0 || free_count < options_.min_object_points ||
+      static_cast<float>(free_count) <= options_.new_objects.min_unassigned_share * static_cast<float>(cluster_points.size())) {
+    return false;
+  }
+  ManagedObject& object = objects_.at(owner);
+  if (frames_ - object.created_frame >= options_.growth_frames) return false;
+  const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
+  const std::size_t room = options_.max_model_points > object.model.cloud.size()
+                               ? options_.max_model_points - object.model.cloud.size()
+                               : 0;
+  const std::size_t take = std::min(room, free_count);
+  std::size_t seen = 0;
+  std::size_t taken = 0;
+  std::vector<Rgb8> added_colors;
+  for (const int i : cluster_points) {
+    const auto k = static_cast<std::size_t>(i);
+    if (frame_.labels[k] != 0) continue;
+    frame_.labels[k] = owner;
+    // Deterministic even subsampling of the free points into the room left in the model.
+    if (taken < take && seen * take >= taken * free_count) {
+      object.model.cloud.push_back(camera_to_object * scene.positions[k], scene.colors[k]);
+      added_colors.push_back(scene.colors[k]);
+      ++taken;
+    }
+    ++seen;
+  }
+  const auto features = compute_smr(added_colors, options_.smr);
+  object.model.features.insert(object.model.features.end(), features.begin(), features.end());
+  object.support += free_count;
+  ++object.version;
+  return true;
 }
 
 void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> cluster_points) {
@@ -127,6 +176,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
   object.support = free_points.size();
   object.confidence = 1.f;
+  object.created_frame = frames_;
   for (const int i : free_points) frame_.labels[static_cast<std::size_t>(i)] = object.id;
 
   ModelUpdateOptions update = options_.model_update;

@@ -27,6 +27,10 @@ struct ObjectManagerOptions {
   SmrOptions smr;                       // colour feature of model points
   std::size_t min_object_points = 50;   // >= 1: smaller clusters never become objects
   std::size_t max_model_points = 1500;  // >= min_object_points: a new model is subsampled to this size
+  // An object younger than this (frames) that a cluster connects to unexplained points grows by
+  // them instead of a new object being made: objects entering the view (a hand and its arm
+  // reaching in from the border) are seen a part at a time. 0 disables growth.
+  int growth_frames = 30;
   void validate() const;
 };
 
@@ -45,6 +49,7 @@ struct ManagedObject {
   bool stale = false;           // no estimate arrived for the latest frame
   std::int32_t version = 0;     // incremented on every model change
   std::size_t support = 0;      // scene points segmented to it in the latest frame
+  std::int64_t created_frame = 0;  // frames_processed() when it was created
 };
 
 struct ObjectManagerFrame {
@@ -58,7 +63,8 @@ struct ObjectManagerFrame {
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames;
-//   5. create objects from clusters that no object explains: at the first frame every cluster,
+//   5. grow young objects by the unexplained points of clusters that connect only to them;
+//   6. create objects from clusters that no object explains: at the first frame every cluster,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
 //      model is the cluster in a frame at its centroid, axis-aligned with the camera.
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
@@ -81,6 +87,8 @@ class ObjectManager {
 
  private:
   void create_object(const ColoredCloud& scene, std::span<const int> cluster_points);
+  // Step 5 for one cluster; true when the cluster's free points went to a young object.
+  bool grow_young_object(const ColoredCloud& scene, std::span<const int> cluster_points);
 
   ObjectManagerOptions options_;
   Segmenter segmenter_;
