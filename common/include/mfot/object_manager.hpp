@@ -30,7 +30,7 @@ struct ObjectManagerOptions {
   // An object younger than this (frames) that a cluster connects to unexplained points grows by
   // them instead of a new object being made: objects entering the view (a hand and its arm
   // reaching in from the border) are seen a part at a time. 0 disables growth.
-  int growth_frames = 30;
+  int growth_frames = 300;
   void validate() const;
 };
 
