@@ -9,6 +9,7 @@
 #include "mfot/poses_t.hpp"
 #include "mfot/segmentation_t.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
@@ -29,56 +30,6 @@ namespace mfot::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-struct MergerConfig {
-  ObjectManagerOptions manager;
-  int estimate_timeout_ms = 500;
-  int worker_timeout_ms = 1000;
-  int expected_workers = 0;
-  int startup_timeout_ms = 10000;
-  bool write_labels = true;
-  bool fitting_distance = true;
-  Pose world_from_camera;
-  float fps = 30.f;
-};
-
-MergerConfig load_merger_config(const YAML::Node& root) {
-  MergerConfig c;
-  auto s = config_section(root, "merger");
-  c.manager.segmentation.tau = s.get<float>("tau", 0.010f, 1e-4f, 0.1f);
-  c.manager.model_update.alpha = s.get<float>("alpha", 0.02f, 0.f, 1.f);
-  c.manager.model_update.seed = s.get<std::uint64_t>("seed", 1);
-  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 50, 1, 100000);
-  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
-  c.manager.growth_frames = s.get<int>("growth_frames", 300, 0, 100000);
-  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 3, 1, 1000);
-  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
-  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
-  c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
-  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
-  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
-  c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);
-  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 10000, 0, 600000);
-  c.write_labels = s.get<bool>("write_labels", true);
-  c.fitting_distance = s.get<bool>("fitting_distance", true);
-  c.fps = s.get<float>("fps", 30.f, 1.f, 1000.f);
-  auto world = s.section("world");
-  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
-  const auto q = world.get_vector("rotation", {1, 0, 0, 0}, 4);
-  double tq[3] = {t[0], t[1], t[2]};
-  double qq[4] = {q[0], q[1], q[2], q[3]};
-  if (auto error = pose_from_arrays(tq, qq, c.world_from_camera)) {
-    throw ConfigError("merger.world: " + *error + " (rotation is w, x, y, z)");
-  }
-  world.finish();
-  s.finish();
-  try {
-    c.manager.validate();
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("merger: ") + e.what());
-  }
-  return c;
-}
 
 struct Worker {
   Clock::time_point last_seen;

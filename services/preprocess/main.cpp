@@ -8,6 +8,7 @@
 #include "mfot/preprocessing.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
@@ -23,38 +24,6 @@ namespace mfot::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-Eigen::Vector3f vector3(const std::vector<double>& v) {
-  return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
-}
-
-// The `preprocess` section; every key is documented in configs/preprocess.example.yaml.
-PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
-  PreprocessorOptions o;
-  auto s = config_section(root, "preprocess");
-  o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
-  o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
-  o.remove_plane = s.get<bool>("remove_plane", o.remove_plane);
-  o.plane_fit.iterations = s.get<int>("ransac_iterations", o.plane_fit.iterations, 1, 100000);
-  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", o.plane_fit.sample_points, 3, 1000000);
-  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", o.plane_fit.inlier_distance, 1e-4f, 0.5f);
-  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", o.plane_fit.min_inlier_share, 1e-3f, 1.f);
-  o.plane_fit.seed = s.get<std::uint64_t>("seed", o.plane_fit.seed);
-  o.plane_margin = s.get<float>("plane_margin", o.plane_margin, 0.f, 0.5f);
-  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", o.plane_keep_ratio, 1e-3f, 1.f);
-  o.voxel_size = s.get<float>("voxel_size", o.voxel_size, 1e-4f, 1.f);
-  o.cluster = s.get<bool>("cluster", o.cluster);
-  o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
-  o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
-  o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
-  s.finish();
-  try {
-    o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("preprocess: ") + e.what());
-  }
-  return o;
-}
 
 class PreprocessService {
  public:

@@ -9,6 +9,7 @@
 #include "mfot/hypothesis.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
@@ -25,51 +26,6 @@ namespace mfot::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-struct TrackerConfig {
-  LikelihoodOptions likelihood;
-  ParticleFilterOptions filter;
-  HypothesisOptions hypothesis;
-  int heartbeat_ms = 100;
-};
-
-LikelihoodBackend parse_backend(const std::string& name) {
-  if (name == "cuda") return LikelihoodBackend::kCuda;
-  if (name == "cpu") return LikelihoodBackend::kCpu;
-  if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
-  return LikelihoodBackend::kAuto;
-}
-
-TrackerConfig load_tracker_config(const YAML::Node& root) {
-  TrackerConfig c;
-  auto s = config_section(root, "tracker");
-  c.likelihood.backend = parse_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
-  c.likelihood.cpu_threads = s.get<int>("threads", 1, 1, 256);
-  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 0, 64);
-  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.015f, 0.001f, 0.2f);
-  c.filter.num_particles = s.get<int>("particles", c.filter.num_particles, 1, 100000);
-  c.filter.lambda = s.get<float>("lambda", c.filter.lambda, 0.f, 1000.f);
-  c.filter.seed = s.get<std::uint64_t>("seed", c.filter.seed);
-  const std::string resampling = s.choice("resampling", "systematic", {"multinomial", "systematic"});
-  c.filter.resampling = resampling == "systematic" ? ResamplingScheme::kSystematic : ResamplingScheme::kMultinomial;
-  const auto sigma = s.get_vector("init_sigma",
-                                  {c.filter.init_sigma[0], c.filter.init_sigma[1], c.filter.init_sigma[2],
-                                   c.filter.init_sigma[3], c.filter.init_sigma[4], c.filter.init_sigma[5]},
-                                  6);
-  for (int i = 0; i < 6; ++i) c.filter.init_sigma[i] = static_cast<float>(sigma[static_cast<std::size_t>(i)]);
-  c.filter.a = s.get<float>("diffusion_a", c.filter.a, 0.f, 100.f);
-  c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
-  c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
-  c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
-  c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
-  s.finish();
-  try {
-    const ParticleFilter validate_only(c.filter);  // the filter validates its options
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError(std::string("tracker: ") + e.what());
-  }
-  return c;
-}
 
 class TrackerWorker {
  public:

@@ -83,6 +83,24 @@ class PipelineTest(unittest.TestCase):
             # figure itself is reported in the README against the 99.5 % target.
             self.assertGreater(ev["segmentation"]["accuracy"], 0.4)
 
+    def test_inprocess_static_scene(self):
+        """The in-process pipeline (no LCM) finds and holds the three objects of the static scene."""
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "run"
+            res = subprocess.run([str(BUILD / "services/inprocess/mfot-inprocess"), "--config", str(REPO / "configs/default.yaml"),
+                                  "--scenario", "static", "--max-frames", "60", "--backend", "cpu", "--out", str(out)],
+                                 capture_output=True, text=True, timeout=600, cwd=REPO)
+            self.assertEqual(res.returncode, 0, res.stdout + res.stderr)
+            ev_out = Path(tmp) / "evaluation"
+            res = subprocess.run([str(BUILD / "services/evaluate/mfot-evaluate"), "--run", f"mfot={out}", "--groundtruth",
+                                  str(out / "groundtruth"), "--out", str(ev_out), "--no-plots"],
+                                 capture_output=True, text=True, timeout=600)
+            self.assertEqual(res.returncode, 0, res.stdout + res.stderr)
+            ev = json.loads((ev_out / "summary.json").read_text())["runs"][0]
+            self.assertEqual(ev["tracks_lost"], 0)
+            self.assertGreater(ev["segmentation"]["accuracy"], 0.9)
+            self.assertLess(ev["pose_error"]["translation_median_mm"], 5.0)
+
     def test_lockstep_replay_is_bit_identical(self):
         with tempfile.TemporaryDirectory() as tmp:
             first = Path(tmp) / "record"

@@ -1,0 +1,39 @@
+#pragma once
+// The config sections of the pipeline's stages (`preprocess`, `tracker`, `merger`), read strictly
+// (unknown keys, wrong types and out-of-range values throw ConfigError naming the key and range).
+// Shared by the services and the in-process runner, so both run exactly the same configuration.
+
+#include "mfot/cuda/likelihood_factory.hpp"
+#include "mfot/hypothesis.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/service/config.hpp"
+
+namespace mfot::service {
+
+struct TrackerConfig {
+  LikelihoodOptions likelihood;
+  ParticleFilterOptions filter;
+  HypothesisOptions hypothesis;
+  int heartbeat_ms = 100;
+};
+
+struct MergerConfig {
+  ObjectManagerOptions manager;
+  int estimate_timeout_ms = 500;
+  int worker_timeout_ms = 1000;
+  int expected_workers = 0;
+  int startup_timeout_ms = 10000;
+  bool write_labels = true;
+  bool fitting_distance = true;
+  Pose world_from_camera;
+  float fps = 30.f;
+};
+
+// Every key is documented in configs/default.yaml and configs/preprocess.example.yaml.
+PreprocessorOptions load_preprocess_config(const YAML::Node& root);
+TrackerConfig load_tracker_config(const YAML::Node& root);
+MergerConfig load_merger_config(const YAML::Node& root);
+
+}  // namespace mfot::service

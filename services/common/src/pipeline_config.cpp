@@ -1,0 +1,123 @@
+#include "mfot/service/pipeline_config.hpp"
+
+#include "mfot/service/convert.hpp"
+
+#include <string>
+#include <vector>
+
+namespace mfot::service {
+
+namespace {
+Eigen::Vector3f vector3(const std::vector<double>& v) {
+  return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+}
+
+}  // namespace
+
+PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
+  PreprocessorOptions o;
+  auto s = config_section(root, "preprocess");
+  o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
+  o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
+  o.remove_plane = s.get<bool>("remove_plane", o.remove_plane);
+  o.plane_fit.iterations = s.get<int>("ransac_iterations", o.plane_fit.iterations, 1, 100000);
+  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", o.plane_fit.sample_points, 3, 1000000);
+  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", o.plane_fit.inlier_distance, 1e-4f, 0.5f);
+  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", o.plane_fit.min_inlier_share, 1e-3f, 1.f);
+  o.plane_fit.seed = s.get<std::uint64_t>("seed", o.plane_fit.seed);
+  o.plane_margin = s.get<float>("plane_margin", o.plane_margin, 0.f, 0.5f);
+  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", o.plane_keep_ratio, 1e-3f, 1.f);
+  o.voxel_size = s.get<float>("voxel_size", o.voxel_size, 1e-4f, 1.f);
+  o.cluster = s.get<bool>("cluster", o.cluster);
+  o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
+  o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
+  o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
+  s.finish();
+  try {
+    o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("preprocess: ") + e.what());
+  }
+  return o;
+}
+
+namespace {
+LikelihoodBackend parse_backend(const std::string& name) {
+  if (name == "cuda") return LikelihoodBackend::kCuda;
+  if (name == "cpu") return LikelihoodBackend::kCpu;
+  if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
+  return LikelihoodBackend::kAuto;
+}
+
+}  // namespace
+
+TrackerConfig load_tracker_config(const YAML::Node& root) {
+  TrackerConfig c;
+  auto s = config_section(root, "tracker");
+  c.likelihood.backend = parse_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
+  c.likelihood.cpu_threads = s.get<int>("threads", 1, 1, 256);
+  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 0, 64);
+  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.015f, 0.001f, 0.2f);
+  c.filter.num_particles = s.get<int>("particles", c.filter.num_particles, 1, 100000);
+  c.filter.lambda = s.get<float>("lambda", c.filter.lambda, 0.f, 1000.f);
+  c.filter.seed = s.get<std::uint64_t>("seed", c.filter.seed);
+  const std::string resampling = s.choice("resampling", "systematic", {"multinomial", "systematic"});
+  c.filter.resampling = resampling == "systematic" ? ResamplingScheme::kSystematic : ResamplingScheme::kMultinomial;
+  const auto sigma = s.get_vector("init_sigma",
+                                  {c.filter.init_sigma[0], c.filter.init_sigma[1], c.filter.init_sigma[2],
+                                   c.filter.init_sigma[3], c.filter.init_sigma[4], c.filter.init_sigma[5]},
+                                  6);
+  for (int i = 0; i < 6; ++i) c.filter.init_sigma[i] = static_cast<float>(sigma[static_cast<std::size_t>(i)]);
+  c.filter.a = s.get<float>("diffusion_a", c.filter.a, 0.f, 100.f);
+  c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
+  c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
+  c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
+  c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
+  s.finish();
+  try {
+    const ParticleFilter validate_only(c.filter);  // the filter validates its options
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("tracker: ") + e.what());
+  }
+  return c;
+}
+
+MergerConfig load_merger_config(const YAML::Node& root) {
+  MergerConfig c;
+  auto s = config_section(root, "merger");
+  c.manager.segmentation.tau = s.get<float>("tau", 0.010f, 1e-4f, 0.1f);
+  c.manager.model_update.alpha = s.get<float>("alpha", 0.02f, 0.f, 1.f);
+  c.manager.model_update.seed = s.get<std::uint64_t>("seed", 1);
+  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 50, 1, 100000);
+  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
+  c.manager.growth_frames = s.get<int>("growth_frames", 300, 0, 100000);
+  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 3, 1, 1000);
+  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
+  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
+  c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
+  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
+  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
+  c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);
+  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 10000, 0, 600000);
+  c.write_labels = s.get<bool>("write_labels", true);
+  c.fitting_distance = s.get<bool>("fitting_distance", true);
+  c.fps = s.get<float>("fps", 30.f, 1.f, 1000.f);
+  auto world = s.section("world");
+  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
+  const auto q = world.get_vector("rotation", {1, 0, 0, 0}, 4);
+  double tq[3] = {t[0], t[1], t[2]};
+  double qq[4] = {q[0], q[1], q[2], q[3]};
+  if (auto error = pose_from_arrays(tq, qq, c.world_from_camera)) {
+    throw ConfigError("merger.world: " + *error + " (rotation is w, x, y, z)");
+  }
+  world.finish();
+  s.finish();
+  try {
+    c.manager.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("merger: ") + e.what());
+  }
+  return c;
+}
+
+}  // namespace mfot::service

@@ -1,0 +1,176 @@
+// mfot-inprocess: the whole pipeline in one process with direct calls, no LCM: source ->
+// frame encoding (as on the wire) -> Preprocessor -> one ParticleFilter per object ->
+// ObjectManager, with the same config sections as the services. It measures the method without
+// the transport (compare its rate with scripts/mfot-run's) and serves integration tests.
+
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/capture/frame_source.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/run_writer.hpp"
+#include "mfot/service/tum_dataset.hpp"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace mfot::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// One object's tracker, as a tracker worker runs it (services/tracker).
+struct ObjectTracker {
+  LikelihoodChoice likelihood;
+  std::unique_ptr<ParticleFilter> filter;
+  Eigen::AlignedBox3f model_box;
+};
+
+struct Options {
+  std::string config_path = "configs/default.yaml";
+  std::string scenario;
+  std::int64_t max_frames = 0;
+  std::string backend;
+  std::string out_dir;
+};
+
+int run(const Options& cli) {
+  const YAML::Node root = load_config_file(cli.config_path);
+  capture::CaptureSettings capture = capture::load_capture_settings(config_section(root, "capture"));
+  if (!cli.scenario.empty()) {
+    capture.source = "sim";
+    capture.scenario = cli.scenario;
+  }
+  if (cli.max_frames > 0) capture.max_frames = cli.max_frames;
+  capture.validate();
+  const PreprocessorOptions preprocess_options = load_preprocess_config(root);
+  TrackerConfig tracker_config = load_tracker_config(root);
+  if (!cli.backend.empty()) {
+    tracker_config.likelihood.backend = cli.backend == "cuda"             ? LikelihoodBackend::kCuda
+                                        : cli.backend == "cpu"            ? LikelihoodBackend::kCpu
+                                        : cli.backend == "point-to-point" ? LikelihoodBackend::kPointToPoint
+                                                                          : LikelihoodBackend::kAuto;
+  }
+  const MergerConfig merger_config = load_merger_config(root);
+
+  auto source = capture::make_source(capture, [] { return stop_requested(); });
+  Preprocessor preprocessor(preprocess_options);
+  ObjectManager manager(merger_config.manager);
+  std::map<std::int32_t, ObjectTracker> trackers;
+  std::unique_ptr<RunWriter> writer;
+  std::unique_ptr<GroundTruthWriter> truth_writer;
+  if (!cli.out_dir.empty()) {
+    writer = std::make_unique<RunWriter>(cli.out_dir);
+    truth_writer = std::make_unique<GroundTruthWriter>(cli.out_dir + "/groundtruth");
+  }
+
+  std::vector<double> frame_ms;
+  HypothesisData hypothesis;
+  Scene scene;
+  std::int64_t seq = 0;
+  const auto start = Clock::now();
+  while (!stop_requested() && (capture.max_frames <= 0 || seq < capture.max_frames)) {
+    std::optional<capture::SourceFrame> item = source->next();
+    if (!item) break;
+    const auto t0 = Clock::now();
+    // The frame as the services see it after the wire's (possibly lossy) encoding.
+    const Frame frame = decode_frame(encode_frame(item->frame, capture.encoding, seq, source->name(), now_utime()));
+    RgbdImageView view;
+    view.width = frame.width;
+    view.height = frame.height;
+    view.intrinsics = {frame.fx, frame.fy, frame.cx, frame.cy};
+    view.depth_mm = frame.depth_mm;
+    view.color = frame.color;
+    const SceneCloud& cloud = preprocessor.process(view);
+    scene.cloud.clear();
+    scene.cloud.positions = cloud.positions;
+    scene.cloud.colors = cloud.colors;
+    scene.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+    scene.features = compute_smr(scene.cloud.colors);
+
+    std::map<std::int32_t, ObjectEstimate> estimates;
+    for (auto& [id, tracker] : trackers) {
+      select_hypothesis_data(scene.cloud, scene.features, tracker.model_box, tracker.filter->estimate(),
+                             tracker_config.hypothesis, hypothesis);
+      const Pose estimate = tracker.filter->step(hypothesis, *tracker.likelihood.likelihood);
+      estimates[id] = {estimate, tracker.filter->confidence()};
+    }
+    const ObjectManagerFrame& result = manager.process(scene.cloud, scene.cluster, estimates);
+    for (const std::int32_t id : result.retired) trackers.erase(id);
+    for (const auto& [id, object] : manager.objects()) {
+      auto [it, created] = trackers.try_emplace(id);
+      ObjectTracker& tracker = it->second;
+      if (created) {
+        tracker.likelihood = make_likelihood(tracker_config.likelihood);
+        ParticleFilterOptions options = tracker_config.filter;
+        options.seed = tracker_config.filter.seed + static_cast<std::uint64_t>(id);
+        tracker.filter = std::make_unique<ParticleFilter>(options);
+        tracker.filter->reset(object.pose);
+      }
+      tracker.model_box = model_bounding_box(object.model);
+      tracker.likelihood.likelihood->set_model(object.model);
+    }
+    frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+
+    if (writer) {
+      for (const auto& [id, object] : manager.objects()) {
+        writer->write_pose(seq, frame.capture_utime, id, object.pose, object.confidence, object.stale);
+      }
+      writer->write_labels(seq, dense_labels(frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy,
+                                             frame.depth_mm, preprocess_options.voxel_size, scene.cloud.positions,
+                                             result.labels));
+      if (item->truth) {
+        GroundTruthFrame truth = *item->truth;
+        truth.frame = seq;
+        truth_writer->write(truth);
+      }
+    }
+    ++seq;
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (writer) writer->flush();
+  std::sort(frame_ms.begin(), frame_ms.end());
+  const auto pct = [&](double q) {
+    return frame_ms.empty() ? 0.0 : frame_ms[static_cast<std::size_t>(q * static_cast<double>(frame_ms.size() - 1))];
+  };
+  spdlog::info("{} frames in {:.2f} s: {:.1f} frames/s; per frame p50 {:.1f} ms, p99 {:.1f} ms; {} objects at the end",
+               seq, seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), pct(0.5), pct(0.99),
+               manager.objects().size());
+  return seq > 0 ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace mfot::service
+
+int main(int argc, char** argv) {
+  using namespace mfot::service;
+  CLI::App app{"mfot-inprocess: the whole pipeline in one process, without LCM"};
+  Options options;
+  app.add_option("--config", options.config_path, "YAML config (sections capture, preprocess, tracker, merger)");
+  app.add_option("--scenario", options.scenario, "simulator scenario (overrides the capture source)");
+  app.add_option("--max-frames", options.max_frames, "stop after this many frames (0: the whole source)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--backend", options.backend, "likelihood backend")
+      ->check(CLI::IsMember({"auto", "cuda", "cpu", "point-to-point"}));
+  app.add_option("--out", options.out_dir, "write poses.csv, labels/ and groundtruth/ here");
+  CLI11_PARSE(app, argc, argv);
+  setup_logging("inprocess", 0);
+  install_signal_handlers();
+  try {
+    return run(options);
+  } catch (const ConfigError& e) {
+    spdlog::error("configuration refused: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::error("fatal: {}", e.what());
+    return 1;
+  }
+}
