@@ -9,6 +9,7 @@
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/run_writer.hpp"
 #include "mfot/service/tum_dataset.hpp"
 
@@ -164,13 +165,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("inprocess", 0);
   install_signal_handlers();
-  try {
+  return run_service_main([&] {
     return run(options);
-  } catch (const ConfigError& e) {
-    spdlog::error("configuration refused: {}", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    spdlog::error("fatal: {}", e.what());
-    return 1;
-  }
+  });
 }

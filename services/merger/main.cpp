@@ -10,6 +10,7 @@
 #include "mfot/segmentation_t.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
@@ -325,7 +326,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("merger", 0);
   install_signal_handlers();
-  try {
+  return run_service_main([&] {
     const MergerConfig config = load_merger_config(load_config_file(config_path));
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
@@ -336,12 +337,6 @@ int main(int argc, char** argv) {
     spdlog::info("merger up (tau {} m, alpha {}), LCM {}", config.manager.segmentation.tau,
                  config.manager.model_update.alpha, lcm_url(lcm_url_arg));
     merger.run();
-  } catch (const ConfigError& e) {
-    spdlog::error("configuration refused: {}", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    spdlog::error("fatal: {}", e.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }

@@ -9,6 +9,7 @@
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
@@ -142,7 +143,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("preprocess", 0);
   install_signal_handlers();
-  try {
+  return run_service_main([&] {
     const mfot::PreprocessorOptions options = load_preprocess_config(load_config_file(config_path));
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
@@ -154,12 +155,6 @@ int main(int argc, char** argv) {
                  options.cluster ? "on" : "off", options.cluster_tolerance);
     PreprocessService service(lcm, options);
     service.run();
-  } catch (const ConfigError& e) {
-    spdlog::error("configuration refused: {}", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    spdlog::error("fatal: {}", e.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }

@@ -6,6 +6,7 @@
 #include "mfot/frame_t.hpp"
 #include "mfot/poses_t.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/status.hpp"
 
 #include <CLI/CLI.hpp>
@@ -116,10 +117,5 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("replay", 0);
   install_signal_handlers();
-  try {
-    return replay(log_path, lcm_url(lcm_url_arg), rate, timeout_ms, max_frames);
-  } catch (const std::exception& e) {
-    spdlog::error("fatal: {}", e.what());
-    return 1;
-  }
+  return run_service_main([&] { return replay(log_path, lcm_url(lcm_url_arg), rate, timeout_ms, max_frames); });
 }

@@ -10,6 +10,7 @@
 #include "mfot/particle_filter.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
@@ -180,7 +181,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("tracker", worker_id);
   install_signal_handlers();
-  try {
+  return run_service_main([&] {
     const TrackerConfig config = load_tracker_config(load_config_file(config_path));
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
@@ -189,12 +190,6 @@ int main(int argc, char** argv) {
     }
     TrackerWorker worker(lcm, config, worker_id);
     worker.run();
-  } catch (const ConfigError& e) {
-    spdlog::error("configuration refused: {}", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    spdlog::error("fatal: {}", e.what());
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }
