@@ -69,7 +69,7 @@ void ConfigSection::finish() const {
   if (!node_ || !node_.IsMap()) return;
   std::string unknown;
   for (const auto& item : node_) {
-    const auto key = item.first.as<std::string>();
+    const auto key = scalar_text(item.first);  // a key may be a sequence or mapping ("? [a, b]: 1")
     if (!read_.count(key)) unknown += (unknown.empty() ? "" : ", ") + qualified(key) + line_of(item.first);
   }
   if (!unknown.empty()) throw ConfigError("unknown config key(s): " + unknown);
@@ -94,7 +94,8 @@ ConfigSection config_section(const YAML::Node& root, const std::string& name) {
 void check_top_level(const YAML::Node& root, const std::vector<std::string>& known_sections) {
   if (!root || !root.IsMap()) return;
   for (const auto& item : root) {
-    const auto key = item.first.as<std::string>();
+    // A sequence or mapping key ("? [a, b]: 1") is never a known section.
+    const auto key = item.first.IsScalar() ? item.first.Scalar() : std::string("<non-scalar key>");
     if (std::find(known_sections.begin(), known_sections.end(), key) == known_sections.end()) {
       throw ConfigError("unknown config section '" + key + "' (line " + std::to_string(item.first.Mark().line + 1) +
                         ")");

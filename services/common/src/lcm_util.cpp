@@ -1,7 +1,14 @@
 #include "mfot/service/lcm_util.hpp"
 
+#include "mfot/frame_t.hpp"
+#include "mfot/object_model_t.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/segmentation_t.hpp"
+
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -40,6 +47,92 @@ std::int64_t MalformedCounter::total() const {
 std::string MalformedCounter::last() const {
   std::lock_guard lock(mutex_);
   return last_;
+}
+
+namespace {
+
+// A message being checked against the wire layout of type T (big-endian, 8-byte fingerprint
+// first, lcmtypes/*.lcm). Offsets below count the fields before each array count.
+class WireLayout {
+ public:
+  WireLayout(const lcm::ReceiveBuffer* rbuf, std::int64_t fingerprint)
+      : data_(static_cast<const std::uint8_t*>(rbuf->data)), size_(rbuf->data_size) {
+    std::int64_t hash = 0;
+    ours_ = read(0, 8, hash) && hash == fingerprint;
+  }
+  bool ours() const { return ours_; }
+  // The int32 at `offset`; false when the buffer ends first.
+  bool int32_at(std::size_t offset, std::int64_t& value) const { return read(offset, 4, value); }
+  // False when `count` elements of at least `element_bytes` each cannot fit after `offset`.
+  bool fits(std::size_t offset, std::int64_t count, std::size_t element_bytes) const {
+    return count <= 0 || (offset <= size_ && static_cast<std::uint64_t>(count) <= (size_ - offset) / element_bytes);
+  }
+
+ private:
+  bool read(std::size_t offset, std::size_t bytes, std::int64_t& value) const {
+    if (offset > size_ || size_ - offset < bytes) return false;
+    std::uint64_t bits = 0;
+    for (std::size_t i = 0; i < bytes; ++i) bits = (bits << 8) | data_[offset + i];
+    value = bytes == 4 ? static_cast<std::int32_t>(static_cast<std::uint32_t>(bits)) : static_cast<std::int64_t>(bits);
+    return true;
+  }
+  const std::uint8_t* data_;
+  std::size_t size_;
+  bool ours_ = false;
+};
+
+// One array count at a fixed offset, each element at least `element_bytes` on the wire.
+bool fixed_count_fits(const lcm::ReceiveBuffer* rbuf, std::int64_t fingerprint, std::size_t count_offset,
+                      std::size_t element_bytes) {
+  const WireLayout wire(rbuf, fingerprint);
+  std::int64_t count = 0;
+  if (!wire.ours() || !wire.int32_at(count_offset, count)) return true;
+  return wire.fits(count_offset + 4, count, element_bytes);
+}
+
+}  // namespace
+
+// hash 8 | utime, frame_seq, capture_utime 24 | width, height 8 | fx, fy, cx, cy, voxel_size 20 |
+// plane 16 | num_points; per point x, y, z 12 + r, g, b 3 + u, v 4 + cluster 4.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
+  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 76, 23);
+}
+
+// hash 8 | utime, frame_seq 16 | object_id, worker_id, version 12 | position, orientation,
+// velocity 104 | num_points; per point x, y, z 12 + r, g, b 3.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
+  return fixed_count_fits(rbuf, object_model_t::getHash(), 140, 15);
+}
+
+// hash 8 | utime, frame_seq 16 | num_points; per point label 4.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const segmentation_t*) {
+  return fixed_count_fits(rbuf, segmentation_t::getHash(), 24, 4);
+}
+
+// hash 8 | utime, frame_seq, capture_utime 24 | num_objects; per object_pose_t id 4 + six
+// double vectors 160 + confidence 4 + stale 1.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*) {
+  return fixed_count_fits(rbuf, poses_t::getHash(), 32, 169);
+}
+
+// hash 8 | utime, capture_utime, seq 24 | source (int32 length incl. NUL, bytes) | width, height,
+// fx, fy, cx, cy 24 | depth_encoding 1 | depth_size, depth bytes | color_encoding 1 | color_size,
+// colour bytes.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*) {
+  const WireLayout wire(rbuf, frame_t::getHash());
+  std::int64_t source_length = 0;
+  if (!wire.ours() || !wire.int32_at(32, source_length)) return true;
+  // The length counts the string's NUL, so it is >= 1; lcm-gen computes length - 1 in int, which
+  // overflows for INT32_MIN (found by tests/fuzz/fuzz_frame_decoder.cpp).
+  if (source_length < 1) return false;
+  const std::size_t depth_offset = 36 + static_cast<std::size_t>(source_length) + 25;
+  std::int64_t depth_size = 0;
+  if (!wire.int32_at(depth_offset, depth_size)) return true;
+  if (!wire.fits(depth_offset + 4, depth_size, 1)) return false;
+  const std::size_t color_offset = depth_offset + 4 + static_cast<std::size_t>(std::max<std::int64_t>(depth_size, 0)) + 1;
+  std::int64_t color_size = 0;
+  if (!wire.int32_at(color_offset, color_size)) return true;
+  return wire.fits(color_offset + 4, color_size, 1);
 }
 
 namespace {

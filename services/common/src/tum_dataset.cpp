@@ -132,6 +132,7 @@ std::array<float, 4> read_intrinsics(const std::string& path) {
       double value = 0.0;
       ok = parse_double(tokens[i], value);
       values[i] = static_cast<float>(value);
+      ok = ok && std::isfinite(values[i]);  // a finite double such as 1e300 is still infinite as a float
     }
     if (!ok || !(values[0] > 0.0f && values[1] > 0.0f)) {
       throw DatasetError(path + ":" + std::to_string(number) + ": expected 'fx fy cx cy' with positive focal lengths");

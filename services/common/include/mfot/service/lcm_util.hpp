@@ -11,6 +11,14 @@
 #include <string>
 #include <utility>
 
+namespace mfot {
+class frame_t;
+class object_model_t;
+class poses_t;
+class scene_cloud_t;
+class segmentation_t;
+}  // namespace mfot
+
 namespace mfot::service {
 
 namespace channel {
@@ -46,12 +54,36 @@ class MalformedCounter {
   std::string last_;
 };
 
-// Decodes an lcm-gen type; a truncated buffer or wrong fingerprint is counted and returns false.
+// lcm-gen's decode resizes each array to its declared count before checking that the buffer
+// holds the elements, so a 100-byte message declaring num_points = 2e9 would allocate and zero
+// gigabytes (which succeeds under Linux overcommit, so catching std::bad_alloc is not enough).
+// These read the declared counts of the types with arrays straight from the wire and return false
+// when the elements cannot fit in the buffer (or a string length is below 1); they return true
+// (leaving it to decode) for a foreign fingerprint or a buffer too short to hold the count.
+// Types without arrays need none.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*);
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*);
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*);
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*);
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const segmentation_t*);
+template <class T>
+bool declared_sizes_fit(const lcm::ReceiveBuffer*, const T*) {
+  return true;
+}
+
+// Decodes an lcm-gen type; a truncated buffer, wrong fingerprint, array count larger than the
+// buffer or bytes left over after the message are counted and return false.
 template <class T>
 bool decode_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, T& out,
                     MalformedCounter& malformed) {
   if (rbuf->data_size > static_cast<std::uint32_t>(INT32_MAX)) {
     malformed.record(channel_name, "oversized", std::to_string(rbuf->data_size) + " bytes");
+    return false;
+  }
+  if (!declared_sizes_fit(rbuf, static_cast<const T*>(nullptr))) {
+    malformed.record(channel_name, "bad array size",
+                     "declared array or string sizes do not fit the " + std::to_string(rbuf->data_size) +
+                         " message bytes");
     return false;
   }
   int n = -1;
@@ -64,6 +96,12 @@ bool decode_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel_n
   if (n < 0) {
     malformed.record(channel_name, "undecodable",
                      "truncated or wrong type fingerprint (" + std::to_string(rbuf->data_size) + " bytes)");
+    return false;
+  }
+  // LCM delivers exactly one encoded message: leftover bytes mean a count field lied.
+  if (n != static_cast<int>(rbuf->data_size)) {
+    malformed.record(channel_name, "trailing bytes",
+                     std::to_string(rbuf->data_size - static_cast<std::uint32_t>(n)) + " bytes after the message");
     return false;
   }
   return true;

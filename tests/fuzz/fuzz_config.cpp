@@ -1,0 +1,83 @@
+// Fuzz target: the strict YAML config loader. The input is a config file's text: it is loaded
+// with load_config_file, checked with check_top_level, the capture section is read by the real
+// load_capture_settings (when mfot_capture is built), and the tracker/merger/preprocess/group
+// sections are read through every ConfigSection path the services use (get<int|long|unsigned
+// long|float|double|bool|string> with and without ranges, choice, get_vector, nested section,
+// finish), each read on its own so one bad key does not hide the paths behind it.
+// Contract checked: bad input only ever surfaces as ConfigError, never as another exception
+// (e.g. a yaml-cpp conversion error), a crash or a sanitizer report.
+
+#include "fuzz_support.hpp"
+#include "mfot/service/config.hpp"
+#ifdef MFOT_FUZZ_HAVE_CAPTURE
+#include "mfot/capture/capture_settings.hpp"
+#endif
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace {
+
+using mfot::service::ConfigError;
+using mfot::service::ConfigSection;
+
+template <class Read>
+void read_or_config_error(Read&& read) {
+  try {
+    read();
+  } catch (const ConfigError&) {
+  }
+}
+
+void read_every_way(ConfigSection& s) {
+  read_or_config_error([&] { s.get<int>("particles", 100, 1, 100000); });
+  read_or_config_error([&] { s.get<int>("heartbeat_ms", 100); });
+  read_or_config_error([&] { s.get<long>("max_frames", 0L, 0L, 1000000L); });
+  read_or_config_error([&] { s.get<unsigned long>("seed", 1UL); });
+  read_or_config_error([&] { s.get<float>("lambda", 80.0f, 0.0f, 1000.0f); });
+  read_or_config_error([&] { s.get<float>("cell_size", 0.015f); });
+  read_or_config_error([&] { s.get<double>("tau", 0.01, 0.0, 1.0); });
+  read_or_config_error([&] { s.get<double>("fps", 30.0); });
+  read_or_config_error([&] { s.get<bool>("write_labels", true); });
+  read_or_config_error([&] { s.get<std::string>("backend", "auto"); });
+  read_or_config_error([&] { s.choice("resampling", "systematic", {"multinomial", "systematic"}); });
+  read_or_config_error([&] { s.get_vector("init_sigma", std::vector<double>(6, 0.0), 6); });
+  read_or_config_error([&] {
+    ConfigSection world = s.section("world");
+    read_or_config_error([&] { world.get_vector("translation", {0.0, 0.0, 0.0}, 3); });
+    read_or_config_error([&] { world.get_vector("rotation", {1.0, 0.0, 0.0, 0.0}, 4); });
+    world.finish();
+  });
+  read_or_config_error([&] { (void)s.has("unread"); });
+  read_or_config_error([&] { s.finish(); });
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace mfot::service;
+  mfot::fuzz::silence_logging();
+  const auto path = mfot::fuzz::scratch_folder() / "config.yaml";
+  mfot::fuzz::write_file(path, data, size);
+  YAML::Node root;
+  try {
+    root = load_config_file(path.string());
+  } catch (const ConfigError&) {
+    return 0;
+  }
+  MFOT_FUZZ_CHECK(root.IsMap());
+  read_or_config_error([&] { check_top_level(root, {"group", "capture", "preprocess", "tracker", "merger"}); });
+#ifdef MFOT_FUZZ_HAVE_CAPTURE
+  read_or_config_error([&] { mfot::capture::load_capture_settings(config_section(root, "capture")).validate(); });
+#endif
+  for (const char* name : {"tracker", "merger", "preprocess", "group"}) {
+    read_or_config_error([&] {
+      ConfigSection section = config_section(root, name);
+      read_every_way(section);
+    });
+  }
+  return 0;
+}

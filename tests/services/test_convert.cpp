@@ -1,0 +1,221 @@
+#include "mfot/service/convert.hpp"
+#include "mfot/smr_feature.hpp"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace mfot::service {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Pose random_pose(std::mt19937_64& rng) {
+  const auto uniform = [&rng] { return static_cast<float>(rng() >> 11) * 0x1.0p-53f * 2.0f - 1.0f; };
+  Pose pose;
+  pose.translation = Eigen::Vector3f(uniform(), uniform(), 0.5f + uniform());
+  pose.rotation = Eigen::Quaternionf(uniform(), uniform(), uniform(), uniform() + 2.0f).normalized();
+  return pose;
+}
+
+// An object model of n points with distinct positions and colours.
+ObjectModel make_model(int n) {
+  ObjectModel model;
+  for (int i = 0; i < n; ++i) {
+    model.cloud.push_back(Eigen::Vector3f(0.001f * i, -0.002f * i, 0.05f + 0.0005f * i),
+                          Rgb8{static_cast<std::uint8_t>(i * 7), static_cast<std::uint8_t>(255 - i),
+                               static_cast<std::uint8_t>(i * 13 + 5)});
+  }
+  model.features = compute_smr(model.cloud.colors);
+  return model;
+}
+
+object_model_t over_the_wire(const object_model_t& message) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(message.getEncodedSize()));
+  EXPECT_EQ(message.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  object_model_t decoded;
+  EXPECT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  return decoded;
+}
+
+// A scene message of n points in 2 clusters (every fourth point unclustered).
+scene_cloud_t make_scene_message(int n) {
+  scene_cloud_t msg{};
+  msg.frame_seq = 42;
+  msg.capture_utime = 1700000000123456;
+  msg.width = 640;
+  msg.height = 480;
+  msg.voxel_size = 0.005f;
+  msg.num_points = n;
+  msg.num_clusters = 2;
+  for (int i = 0; i < n; ++i) {
+    msg.x.push_back(0.01f * i);
+    msg.y.push_back(-0.01f * i);
+    msg.z.push_back(0.8f + 0.001f * i);
+    msg.r.push_back(static_cast<std::int8_t>(i));
+    msg.g.push_back(static_cast<std::int8_t>(200));  // above 127: the byte's sign must not leak
+    msg.b.push_back(static_cast<std::int8_t>(3 * i));
+    msg.u.push_back(static_cast<std::int16_t>(i));
+    msg.v.push_back(static_cast<std::int16_t>(2 * i));
+    msg.cluster.push_back(i % 4 == 3 ? -1 : i % 2);
+  }
+  return msg;
+}
+
+TEST(Convert, PoseRoundTripsThroughArrays) {
+  std::mt19937_64 rng(7);
+  for (int k = 0; k < 50; ++k) {
+    const Pose pose = random_pose(rng);
+    double position[3], orientation[4];
+    pose_to_arrays(pose, position, orientation);
+    Pose back;
+    ASSERT_FALSE(pose_from_arrays(position, orientation, back).has_value());
+    EXPECT_TRUE(back.translation.isApprox(pose.translation, 1e-6f));
+    EXPECT_NEAR(std::abs(back.rotation.dot(pose.rotation)), 1.0f, 1e-6f);
+  }
+}
+
+TEST(Convert, PoseFromArraysNormalisesNearlyUnitQuaternionsAndRejectsOthers) {
+  const double position[3] = {0.1, 0.2, 0.3};
+  Pose pose;
+  const double nearly_unit[4] = {1.0004, 0.0, 0.0, 0.0};
+  ASSERT_FALSE(pose_from_arrays(position, nearly_unit, pose).has_value());
+  EXPECT_NEAR(pose.rotation.norm(), 1.0f, 1e-6f);
+
+  for (const auto& q : {std::array<double, 4>{0.5, 0.0, 0.0, 0.0}, std::array<double, 4>{0.0, 0.0, 0.0, 0.0},
+                        std::array<double, 4>{kNaN, 0.0, 0.0, 1.0}, std::array<double, 4>{1.0, kInf, 0.0, 0.0}}) {
+    EXPECT_TRUE(pose_from_arrays(position, q.data(), pose).has_value()) << q[0] << " " << q[1];
+  }
+  const double unit[4] = {1.0, 0.0, 0.0, 0.0};
+  for (const auto& p : {std::array<double, 3>{kNaN, 0.0, 0.0}, std::array<double, 3>{0.0, -kInf, 0.0}}) {
+    EXPECT_TRUE(pose_from_arrays(p.data(), unit, pose).has_value());
+  }
+}
+
+TEST(Convert, ModelRoundTripsThroughTheMessageAndTheWire) {
+  const ObjectModel model = make_model(37);
+  std::mt19937_64 rng(11);
+  const Pose pose = random_pose(rng);
+  object_model_t msg{};
+  msg.object_id = 3;
+  model_to_message(model, msg);
+  pose_to_arrays(pose, msg.position, msg.orientation);
+  for (int i = 0; i < 6; ++i) msg.velocity[i] = 0.01 * (i + 1);
+  EXPECT_EQ(msg.num_points, 37);
+
+  ObjectModel back;
+  Pose back_pose;
+  PoseVector velocity;
+  ASSERT_FALSE(model_from_message(over_the_wire(msg), back, back_pose, velocity).has_value());
+  ASSERT_EQ(back.cloud.size(), model.cloud.size());
+  for (std::size_t i = 0; i < model.cloud.size(); ++i) {
+    EXPECT_EQ(back.cloud.positions[i], model.cloud.positions[i]) << i;
+    EXPECT_EQ(back.cloud.colors[i], model.cloud.colors[i]) << i;
+  }
+  // Features are recomputed from the colours on arrival.
+  const auto expected = compute_smr(model.cloud.colors);
+  ASSERT_EQ(back.features.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(back.features[i].hue_bin, expected[i].hue_bin) << i;
+    EXPECT_EQ(back.features[i].gray_bin, expected[i].gray_bin) << i;
+    EXPECT_EQ(back.features[i].hue_weight_lo, expected[i].hue_weight_lo) << i;
+    EXPECT_EQ(back.features[i].hue_weight_hi, expected[i].hue_weight_hi) << i;
+    EXPECT_EQ(back.features[i].gray_weight, expected[i].gray_weight) << i;
+  }
+  EXPECT_TRUE(back_pose.translation.isApprox(pose.translation, 1e-6f));
+  for (int i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(velocity[i], 0.01f * (i + 1));
+}
+
+TEST(Convert, EmptyModelRoundTrips) {
+  object_model_t msg{};
+  msg.orientation[0] = 1.0;
+  model_to_message(ObjectModel{}, msg);
+  ObjectModel back = make_model(3);
+  Pose pose;
+  PoseVector velocity;
+  ASSERT_FALSE(model_from_message(over_the_wire(msg), back, pose, velocity).has_value());
+  EXPECT_TRUE(back.cloud.empty());
+  EXPECT_TRUE(back.features.empty());
+}
+
+TEST(Convert, InvalidModelsAreRejectedWithTheReason) {
+  object_model_t valid{};
+  model_to_message(make_model(5), valid);
+  valid.orientation[0] = 1.0;
+  ObjectModel model;
+  Pose pose;
+  PoseVector velocity;
+  ASSERT_FALSE(model_from_message(valid, model, pose, velocity).has_value());
+
+  auto negative = valid;
+  negative.num_points = -1;
+  EXPECT_EQ(model_from_message(negative, model, pose, velocity), "negative num_points");
+  auto short_array = valid;
+  short_array.g.pop_back();
+  EXPECT_EQ(model_from_message(short_array, model, pose, velocity), "array sizes disagree with num_points");
+  auto nan_point = valid;
+  nan_point.y[2] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(model_from_message(nan_point, model, pose, velocity), "non-finite model point 2");
+  auto inf_velocity = valid;
+  inf_velocity.velocity[4] = kInf;
+  EXPECT_EQ(model_from_message(inf_velocity, model, pose, velocity), "non-finite velocity");
+  auto bad_orientation = valid;
+  bad_orientation.orientation[0] = 2.0;
+  EXPECT_EQ(model_from_message(bad_orientation, model, pose, velocity), "orientation is not a unit quaternion");
+}
+
+TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {
+  const scene_cloud_t msg = make_scene_message(9);
+  Scene scene;
+  scene.features.resize(3);  // stale features from a previous scene must go
+  ASSERT_FALSE(scene_from_message(msg, scene).has_value());
+  EXPECT_EQ(scene.frame_seq, 42);
+  EXPECT_EQ(scene.capture_utime, 1700000000123456);
+  ASSERT_EQ(scene.cloud.size(), 9u);
+  ASSERT_EQ(scene.cluster.size(), 9u);
+  EXPECT_TRUE(scene.features.empty());
+  for (std::size_t i = 0; i < 9; ++i) {
+    EXPECT_EQ(scene.cloud.positions[i], Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]));
+    EXPECT_EQ(scene.cloud.colors[i].r, static_cast<std::uint8_t>(i));
+    EXPECT_EQ(scene.cloud.colors[i].g, 200);
+    EXPECT_EQ(scene.cloud.colors[i].b, static_cast<std::uint8_t>(3 * i));
+    EXPECT_EQ(scene.cluster[i], msg.cluster[i]);
+  }
+}
+
+TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
+  const scene_cloud_t valid = make_scene_message(6);
+  Scene scene;
+  auto negative = valid;
+  negative.num_points = -3;
+  EXPECT_EQ(scene_from_message(negative, scene), "negative num_points");
+  auto long_array = valid;
+  long_array.cluster.push_back(0);
+  EXPECT_EQ(scene_from_message(long_array, scene), "array sizes disagree with num_points");
+  for (const float voxel : {0.0f, -0.005f, std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::infinity()}) {
+    auto bad_voxel = valid;
+    bad_voxel.voxel_size = voxel;
+    EXPECT_EQ(scene_from_message(bad_voxel, scene), "voxel_size must be finite and > 0") << voxel;
+  }
+  auto inf_point = valid;
+  inf_point.z[4] = -std::numeric_limits<float>::infinity();
+  EXPECT_EQ(scene_from_message(inf_point, scene), "non-finite coordinate at point 4");
+  auto cluster_too_large = valid;
+  cluster_too_large.cluster[1] = valid.num_clusters;
+  EXPECT_TRUE(scene_from_message(cluster_too_large, scene).has_value());
+  auto cluster_below_none = valid;
+  cluster_below_none.cluster[0] = -2;
+  EXPECT_TRUE(scene_from_message(cluster_below_none, scene).has_value());
+  ASSERT_FALSE(scene_from_message(valid, scene).has_value());
+  EXPECT_EQ(scene.cloud.size(), 6u);
+}
+
+}  // namespace
+}  // namespace mfot::service
