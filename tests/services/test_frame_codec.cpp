@@ -1,8 +1,10 @@
 #include "mfot/service/frame_codec.hpp"
+#include "mfot/service/depth_rvl.hpp"
 #include "mfot/service/image_io.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -75,7 +77,7 @@ std::string error_of(F&& f) {
 
 TEST(FrameCodec, LosslessEncodingsRoundTripExactly) {
   const Frame frame = make_frame();
-  for (const auto depth : {DepthEncoding::kRaw, DepthEncoding::kZlib}) {
+  for (const auto depth : {DepthEncoding::kRaw, DepthEncoding::kZlib, DepthEncoding::kRvl}) {
     for (const auto color : {ColorEncoding::kRaw, ColorEncoding::kPng}) {
       SCOPED_TRACE(to_string(depth) + "/" + to_string(color));
       const frame_t message = encode_frame(frame, options(depth, color), 42, "test:source", 99);
@@ -168,6 +170,7 @@ TEST(FrameCodec, EncodeRejectsInconsistentFramesAndOptions) {
 
 TEST(FrameCodec, ParsesEncodingNames) {
   EXPECT_EQ(parse_depth_encoding("zlib"), DepthEncoding::kZlib);
+  EXPECT_EQ(parse_depth_encoding("rvl"), DepthEncoding::kRvl);
   EXPECT_EQ(parse_depth_encoding("raw"), DepthEncoding::kRaw);
   EXPECT_EQ(parse_color_encoding("jpeg"), ColorEncoding::kJpeg);
   EXPECT_EQ(parse_color_encoding("png"), ColorEncoding::kPng);
@@ -318,6 +321,66 @@ TEST(FrameCodec, RandomCorruptionNeverYieldsMisSizedFrames) {
   }
   // zlib and PNG carry checksums, so most damage must be detected.
   EXPECT_GT(rejected, 150);
+}
+
+// Depth with the structure RVL relies on and the cases it must survive: missing runs at both
+// ends, single pixels, the largest jumps (1 <-> 65535) and long smooth stretches.
+TEST(DepthRvl, RoundTripsEveryValuePatternExactly) {
+  std::mt19937 rng(7);
+  std::vector<std::uint16_t> depth(20011);
+  std::uniform_int_distribution<int> step(-6, 6), kind(0, 99);
+  int value = 900;
+  for (auto& d : depth) {
+    const int k = kind(rng);
+    value = std::clamp(value + step(rng), 1, 65535);
+    d = k < 15 ? 0 : k < 17 ? 65535 : k < 19 ? 1 : static_cast<std::uint16_t>(value);
+  }
+  for (std::size_t i = 5000; i < 6000; ++i) depth[i] = 0;
+  depth.front() = 0;
+  depth.back() = 0;
+  const auto packed = encode_depth_rvl(depth);
+  EXPECT_EQ(decode_depth_rvl(packed.data(), packed.size(), depth.size()), depth);
+  for (const std::vector<std::uint16_t>& small : std::vector<std::vector<std::uint16_t>>{
+           {}, {0}, {1}, {65535}, {0, 0, 0}, {5, 5, 5}, {65535, 1, 65535, 0, 1}}) {
+    const auto bytes = encode_depth_rvl(small);
+    EXPECT_EQ(decode_depth_rvl(bytes.data(), bytes.size(), small.size()), small);
+  }
+}
+
+// A tilted table (1 mm every 4 pixels) with a missing patch: one nibble per measured pixel.
+TEST(DepthRvl, CompressesSmoothDepthWithHolesToAThird) {
+  std::vector<std::uint16_t> depth;
+  for (int v = 0; v < 120; ++v) {
+    for (int u = 0; u < 160; ++u) {
+      const bool hole = u > 40 && u < 70 && v > 30 && v < 50;
+      depth.push_back(hole ? 0 : static_cast<std::uint16_t>(900 + u / 4 + v / 4));
+    }
+  }
+  const auto packed = encode_depth_rvl(depth);
+  EXPECT_LT(packed.size(), depth.size() * 2 / 3);
+  EXPECT_EQ(decode_depth_rvl(packed.data(), packed.size(), depth.size()), depth);
+}
+
+TEST(DepthRvl, RejectsTruncatedOverlongAndOutOfRangeStreams) {
+  const std::vector<std::uint16_t> depth = {0, 0, 700, 701, 702, 0, 650};
+  const auto packed = encode_depth_rvl(depth);
+  const auto decode = [](const std::vector<std::uint8_t>& bytes, std::size_t pixels) {
+    return error_of([&] { decode_depth_rvl(bytes.data(), bytes.size(), pixels); });
+  };
+  EXPECT_NE(decode({packed.begin(), packed.end() - 1}, depth.size()).find("truncated"), std::string::npos);
+  EXPECT_NE(decode(packed, depth.size() - 1).find("passes the image"), std::string::npos);
+  EXPECT_NE(decode(packed, depth.size() + 3).find("truncated"), std::string::npos);
+  std::vector<std::uint8_t> trailing = packed;
+  trailing.push_back(0x11);
+  EXPECT_NE(decode(trailing, depth.size()).find("trailing"), std::string::npos);
+  // zeros 0, nonzeros 1, zigzag 1 (delta -1 from 0): value 0 is not a measurement.
+  EXPECT_NE(decode({0x01, 0x10}, 1).find("outside [1, 65535]"), std::string::npos);
+  EXPECT_NE(decode({0x00, 0x00}, 4).find("empty run"), std::string::npos);
+  EXPECT_NE(decode(std::vector<std::uint8_t>(8, 0xff), 4).find("more than 11 groups"), std::string::npos);
+  frame_t message = encode_frame(make_frame(8, 6), options(DepthEncoding::kRvl, ColorEncoding::kRaw), 3, "t", 0);
+  message.depth_data.pop_back();
+  message.depth_size = static_cast<std::int32_t>(message.depth_data.size());
+  EXPECT_NE(error_of([&] { decode_frame(message); }).find("frame_t seq 3: depth: RVL depth"), std::string::npos);
 }
 
 TEST(ImageIo, Png16AndRgbRoundTripInMemory) {

@@ -63,7 +63,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.groundtruth_dir = section.get<std::string>("groundtruth_dir", s.groundtruth_dir);
 
   s.encoding.depth =
-      service::parse_depth_encoding(section.choice("depth_encoding", to_string(s.encoding.depth), {"raw", "zlib"}));
+      service::parse_depth_encoding(section.choice("depth_encoding", to_string(s.encoding.depth), {"raw", "zlib", "rvl"}));
   s.encoding.color = service::parse_color_encoding(
       section.choice("color_encoding", to_string(s.encoding.color), {"raw", "jpeg", "png"}));
   s.encoding.jpeg_quality = section.get<int>("jpeg_quality", s.encoding.jpeg_quality, 1, 100);

@@ -1,5 +1,7 @@
 #include "mfot/service/frame_codec.hpp"
 
+#include "mfot/service/depth_rvl.hpp"
+
 #include "mfot/service/image_io.hpp"
 
 // jpeglib.h needs size_t and FILE declared first.
@@ -170,7 +172,8 @@ void Frame::validate() const {
 DepthEncoding parse_depth_encoding(const std::string& name) {
   if (name == "raw") return DepthEncoding::kRaw;
   if (name == "zlib") return DepthEncoding::kZlib;
-  throw std::invalid_argument("depth encoding '" + name + "' is not one of raw|zlib");
+  if (name == "rvl") return DepthEncoding::kRvl;
+  throw std::invalid_argument("depth encoding '" + name + "' is not one of raw|zlib|rvl");
 }
 
 ColorEncoding parse_color_encoding(const std::string& name) {
@@ -180,7 +183,14 @@ ColorEncoding parse_color_encoding(const std::string& name) {
   throw std::invalid_argument("colour encoding '" + name + "' is not one of raw|jpeg|png");
 }
 
-std::string to_string(DepthEncoding encoding) { return encoding == DepthEncoding::kZlib ? "zlib" : "raw"; }
+std::string to_string(DepthEncoding encoding) {
+  switch (encoding) {
+    case DepthEncoding::kZlib: return "zlib";
+    case DepthEncoding::kRvl: return "rvl";
+    case DepthEncoding::kRaw: break;
+  }
+  return "raw";
+}
 
 std::string to_string(ColorEncoding encoding) {
   switch (encoding) {
@@ -192,8 +202,8 @@ std::string to_string(ColorEncoding encoding) {
 }
 
 void EncodeOptions::validate() const {
-  if (depth != DepthEncoding::kRaw && depth != DepthEncoding::kZlib) {
-    throw std::invalid_argument("EncodeOptions.depth must be raw or zlib");
+  if (depth != DepthEncoding::kRaw && depth != DepthEncoding::kZlib && depth != DepthEncoding::kRvl) {
+    throw std::invalid_argument("EncodeOptions.depth must be raw, zlib or rvl");
   }
   if (color != ColorEncoding::kRaw && color != ColorEncoding::kJpeg && color != ColorEncoding::kPng) {
     throw std::invalid_argument("EncodeOptions.color must be raw, jpeg or png");
@@ -298,7 +308,8 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
   message.cy = frame.cy;
 
   message.depth_encoding = static_cast<std::int8_t>(options.depth);
-  std::vector<std::uint8_t> depth = depth_to_bytes(frame.depth_mm);
+  std::vector<std::uint8_t> depth = options.depth == DepthEncoding::kRvl ? encode_depth_rvl(frame.depth_mm)
+                                                                         : depth_to_bytes(frame.depth_mm);
   if (options.depth == DepthEncoding::kZlib) depth = compress_zlib(depth, options.zlib_level);
   message.depth_data.assign(depth.begin(), depth.end());
   message.depth_size = static_cast<std::int32_t>(message.depth_data.size());
@@ -366,13 +377,23 @@ Frame decode_frame(const frame_t& message) {
         throw FrameCodecError(what + ": depth: " + e.what());
       }
       break;
+    case frame_t::DEPTH_RVL:
+      break;
     default:
       throw FrameCodecError(what + ": unknown depth_encoding " + std::to_string(message.depth_encoding) +
-                            " (expected 0=raw or 1=zlib)");
+                            " (expected 0=raw, 1=zlib or 2=rvl)");
   }
-  frame.depth_mm.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    frame.depth_mm[i] = static_cast<std::uint16_t>(depth[2 * i] | (depth[2 * i + 1] << 8));
+  if (message.depth_encoding == frame_t::DEPTH_RVL) {
+    try {
+      frame.depth_mm = decode_depth_rvl(depth_bytes, message.depth_data.size(), n);
+    } catch (const FrameCodecError& e) {
+      throw FrameCodecError(what + ": depth: " + e.what());
+    }
+  } else {
+    frame.depth_mm.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      frame.depth_mm[i] = static_cast<std::uint16_t>(depth[2 * i] | (depth[2 * i + 1] << 8));
+    }
   }
 
   switch (message.color_encoding) {

@@ -23,7 +23,7 @@ struct CaptureSettings {
   std::int64_t start_frame = 0;         // first source frame
   bool loop = false;                    // restart a finite source at its end
   std::string groundtruth_dir;          // "" = do not write ground truth
-  service::EncodeOptions encoding{service::DepthEncoding::kZlib, service::ColorEncoding::kJpeg, 90, 1};
+  service::EncodeOptions encoding{service::DepthEncoding::kRvl, service::ColorEncoding::kJpeg, 90, 1};
 
   // sim
   std::string scenario = "stack";       // mfot::sim::scenario_names()

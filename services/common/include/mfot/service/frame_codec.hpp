@@ -32,14 +32,18 @@ struct Frame {
   void validate() const;
 };
 
-enum class DepthEncoding : std::int8_t { kRaw = frame_t::DEPTH_RAW, kZlib = frame_t::DEPTH_ZLIB };
+enum class DepthEncoding : std::int8_t {
+  kRaw = frame_t::DEPTH_RAW,
+  kZlib = frame_t::DEPTH_ZLIB,
+  kRvl = frame_t::DEPTH_RVL
+};
 enum class ColorEncoding : std::int8_t {
   kRaw = frame_t::COLOR_RAW,
   kJpeg = frame_t::COLOR_JPEG,
   kPng = frame_t::COLOR_PNG
 };
 
-// "raw" | "zlib" and "raw" | "jpeg" | "png"; anything else throws std::invalid_argument.
+// "raw" | "zlib" | "rvl" and "raw" | "jpeg" | "png"; anything else throws std::invalid_argument.
 DepthEncoding parse_depth_encoding(const std::string& name);
 ColorEncoding parse_color_encoding(const std::string& name);
 std::string to_string(DepthEncoding encoding);
