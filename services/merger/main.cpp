@@ -21,29 +21,44 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <deque>
 #include <map>
 #include <memory>
 #include <optional>
+#include <vector>
 
 namespace mfot::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A model sent to a worker reaches it well within this on one host; a heartbeat that still
+// disagrees with the assignment afterwards means the model (or the retirement) was lost.
+constexpr std::chrono::milliseconds kModelInFlight{200};
+// A heartbeat arriving this long after a scene, from a worker that has not finished that frame,
+// means the worker never got the scene (a worker heartbeats only between frames). Sending it
+// again is harmless: a worker that has it already skips the repeat.
+constexpr std::chrono::milliseconds kSceneInFlight{50};
+// A scene this many frames older than the last one finished starts a new frame sequence (a
+// restarted capture or replay); anything closer is a late or repeated message.
+constexpr std::int64_t kSequenceRestart = 100;
+
 struct Worker {
   Clock::time_point last_seen;
   std::int32_t object_id = -1;         // as assigned by the merger
-  Clock::time_point assigned_at;
+  Clock::time_point told_at;           // when it was last sent its assignment, a move or a retirement
+  std::int64_t last_frame_seq = -1;    // from its last heartbeat
   bool alive = true;
 };
 
 class Merger {
  public:
-  Merger(lcm::LCM& lcm, MergerConfig config, std::optional<std::string> output_dir)
+  Merger(lcm::LCM& lcm, MergerConfig config, std::optional<std::string> output_dir, bool append_output)
       : lcm_(lcm), config_(std::move(config)), manager_(config_.manager), status_(lcm, "merger", 0, "cpu") {
-    if (output_dir) writer_ = std::make_unique<RunWriter>(*output_dir);
+    if (output_dir) writer_ = std::make_unique<RunWriter>(*output_dir, append_output);
     lcm_.subscribe(channel::kScene, &Merger::on_scene, this);
     lcm_.subscribe(channel::kEstimate, &Merger::on_estimate, this);
     lcm_.subscribe(channel::kHeartbeat, &Merger::on_heartbeat, this);
@@ -72,24 +87,37 @@ class Merger {
  private:
   struct PendingScene {
     Scene scene;
+    std::vector<std::uint8_t> message;  // as received, to send again to a worker that lost it
     Clock::time_point arrived;
+    Clock::time_point sent;  // arrival or the last time it was sent again
   };
 
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     scene_cloud_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    if (msg.frame_seq + kSequenceRestart < last_finished_seq_) {
+      spdlog::warn("scene seq {} after {}: a new frame sequence", msg.frame_seq, last_finished_seq_);
+      last_finished_seq_ = -1;
+      estimates_.clear();
+    }
+    // Our own re-sent scenes come back here; a reordered one joins the queue in sequence order.
+    const auto at = std::find_if(pending_.begin(), pending_.end(),
+                                 [&](const PendingScene& p) { return p.scene.frame_seq >= msg.frame_seq; });
+    if (at != pending_.end() && at->scene.frame_seq == msg.frame_seq) return;
+    if (msg.frame_seq <= last_finished_seq_) {
+      status_.set_message("late or repeated scene " + std::to_string(msg.frame_seq));
+      return;
+    }
     PendingScene pending;
     if (auto error = scene_from_message(msg, pending.scene)) {
       status_.malformed().record(chan, "invalid scene", *error);
       return;
     }
-    if (pending.scene.frame_seq <= last_finished_seq_) {
-      status_.malformed().record(chan, "old or repeated frame", "seq " + std::to_string(pending.scene.frame_seq));
-      return;
-    }
-    pending.arrived = Clock::now();
+    const auto* bytes = static_cast<const std::uint8_t*>(rbuf->data);
+    pending.message.assign(bytes, bytes + rbuf->data_size);
+    pending.arrived = pending.sent = Clock::now();
     voxel_size_ = msg.voxel_size;
-    pending_.push_back(std::move(pending));
+    pending_.insert(at, std::move(pending));
   }
 
   void on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
@@ -105,8 +133,20 @@ class Merger {
       return;
     }
     estimate.confidence = msg.confidence;
+    // Only the owner's estimates count: a worker that has not yet heard that its object moved
+    // (or a merger restart) must not overwrite the owner's.
+    const auto owner = owner_.find(msg.object_id);
+    if (owner == owner_.end() || owner->second != msg.worker_id) return;
+    note_progress(msg.object_id, msg.frame_seq);
     if (msg.frame_seq <= last_finished_seq_) return;  // too late: that frame was published stale
     estimates_[msg.frame_seq][msg.object_id] = estimate;
+  }
+
+  // The owner of `object_id` has finished frame `seq`: it will not send an estimate for it or
+  // any earlier frame (a lost estimate or a skipped scene), so those frames need not wait.
+  void note_progress(std::int32_t object_id, std::int64_t seq) {
+    auto [it, inserted] = progress_.try_emplace(object_id, seq);
+    if (!inserted) it->second = std::max(it->second, seq);
   }
 
   void on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
@@ -121,12 +161,27 @@ class Merger {
     }
     w.alive = true;
     w.last_seen = now;
-    // A restarted worker reports idle while we think it owns an object: send it the model again.
-    if (w.object_id >= 0 && msg.object_id != w.object_id &&
-        now - w.assigned_at > std::chrono::milliseconds(config_.worker_timeout_ms)) {
+    w.last_frame_seq = msg.last_frame_seq;
+    if (w.object_id >= 0 && msg.object_id == w.object_id) note_progress(w.object_id, msg.last_frame_seq);
+    if (msg.object_id == w.object_id || now - w.told_at <= kModelInFlight) return;
+    w.told_at = now;
+    // The worker lost its model (or restarted): send it again.
+    if (w.object_id >= 0) {
       spdlog::warn("worker {} does not hold object {}; sending its model again", msg.worker_id, w.object_id);
       publish_model(w.object_id, msg.worker_id);
-      w.assigned_at = now;
+    }
+    // The worker holds an object that is not its own (it missed the move or the retirement, or
+    // this merger restarted): tell it who owns that object now, or that it is gone.
+    if (msg.object_id >= 0) {
+      const auto owner = owner_.find(msg.object_id);
+      if (manager_.objects().count(msg.object_id)) {
+        spdlog::warn("worker {} still holds object {}; telling it the owner is worker {}", msg.worker_id,
+                     msg.object_id, owner == owner_.end() ? -1 : owner->second);
+        publish_model(msg.object_id, owner == owner_.end() ? -1 : owner->second);
+      } else {
+        spdlog::warn("worker {} holds object {}, which does not exist; retiring it", msg.worker_id, msg.object_id);
+        publish_retirement(msg.object_id, last_finished_seq_);
+      }
     }
   }
 
@@ -148,7 +203,10 @@ class Merger {
       w.alive = false;
       spdlog::warn("tracker worker {} silent for {} ms: declared dead{}", id, config_.worker_timeout_ms,
                    w.object_id >= 0 ? fmt::format("; object {} will be reassigned", w.object_id) : "");
-      if (w.object_id >= 0) owner_.erase(w.object_id);
+      if (w.object_id >= 0) {
+        owner_.erase(w.object_id);
+        progress_.erase(w.object_id);
+      }
       w.object_id = -1;
     }
   }
@@ -160,8 +218,9 @@ class Merger {
       for (auto& [worker_id, w] : workers_) {
         if (!w.alive || w.object_id >= 0) continue;
         w.object_id = object_id;
-        w.assigned_at = now;
+        w.told_at = now;
         owner_[object_id] = worker_id;
+        progress_.erase(object_id);
         spdlog::info("object {} assigned to worker {}", object_id, worker_id);
         publish_model(object_id, worker_id);
         break;
@@ -180,10 +239,24 @@ class Merger {
       }
       started_ = true;
     }
-    const auto& got = estimates_[next.scene.frame_seq];
+    const std::int64_t seq = next.scene.frame_seq;
+    const auto& got = estimates_[seq];
     bool complete = true;
+    bool resend = false;
     for (const auto& [object_id, worker_id] : owner_) {
-      if (!got.count(object_id)) complete = false;
+      if (got.count(object_id)) continue;
+      const auto progress = progress_.find(object_id);
+      if (progress != progress_.end() && progress->second >= seq) continue;  // lost, or skipped
+      complete = false;
+      const Worker& w = workers_.at(worker_id);
+      if (w.last_frame_seq < seq && w.last_seen > next.sent + kSceneInFlight && now - next.sent > kModelInFlight) {
+        resend = true;
+      }
+    }
+    if (!complete && resend) {
+      spdlog::info("a worker did not get the scene of frame {}; sending it again", seq);
+      lcm_.publish(channel::kScene, next.message.data(), static_cast<unsigned>(next.message.size()));
+      next.sent = now;
     }
     const bool timed_out = now - next.arrived > std::chrono::milliseconds(config_.estimate_timeout_ms);
     if (!complete && !timed_out) return false;
@@ -209,16 +282,11 @@ class Merger {
       const std::int32_t worker = it == owner_.end() ? -1 : it->second;
       if (it != owner_.end()) {
         workers_[worker].object_id = -1;
+        workers_[worker].told_at = now;
         owner_.erase(it);
       }
-      object_model_t retire{};
-      retire.utime = now_utime();
-      retire.frame_seq = scene.frame_seq;
-      retire.object_id = id;
-      retire.worker_id = -1;
-      retire.version = -1;
-      retire.orientation[0] = 1;
-      lcm_.publish(channel::kModel, &retire);
+      progress_.erase(id);
+      publish_retirement(id, scene.frame_seq);
     }
     for (const std::int32_t id : result.created) spdlog::info("object {} created at frame {}", id, scene.frame_seq);
     assign_idle_workers(now);
@@ -279,6 +347,19 @@ class Merger {
         frames_.erase(frames_.begin(), std::next(it));
       }
     }
+    // Every published frame is on disk even if this process is killed right after.
+    writer_->flush();
+  }
+
+  void publish_retirement(std::int32_t object_id, std::int64_t frame_seq) {
+    object_model_t retire{};
+    retire.utime = now_utime();
+    retire.frame_seq = frame_seq;
+    retire.object_id = object_id;
+    retire.worker_id = -1;
+    retire.version = -1;
+    retire.orientation[0] = 1;
+    lcm_.publish(channel::kModel, &retire);
   }
 
   void publish_model(std::int32_t object_id, std::int32_t worker_id) {
@@ -305,6 +386,7 @@ class Merger {
   std::map<std::int64_t, std::map<std::int32_t, ObjectEstimate>> estimates_;  // frame -> object -> estimate
   std::map<std::int32_t, Worker> workers_;
   std::map<std::int32_t, std::int32_t> owner_;  // object -> worker
+  std::map<std::int32_t, std::int64_t> progress_;  // object -> last frame its owner finished
   std::map<std::int64_t, Frame> frames_;         // for dense label images
   std::int64_t last_finished_seq_ = -1;
   float voxel_size_ = 0.005f;
@@ -320,9 +402,12 @@ int main(int argc, char** argv) {
   std::string config_path = "configs/default.yaml";
   std::string lcm_url_arg;
   std::string output_dir;
+  bool append_output = false;
   app.add_option("--config", config_path, "YAML config (section `merger`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
   app.add_option("--output-dir", output_dir, "write poses.csv, fitting.csv and labels/ here");
+  app.add_flag("--append-output", append_output,
+               "continue the CSV files already in --output-dir (a restarted merger) instead of starting them anew");
   CLI11_PARSE(app, argc, argv);
   setup_logging("merger", 0);
   install_signal_handlers();
@@ -333,7 +418,8 @@ int main(int argc, char** argv) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
       return 1;
     }
-    Merger merger(lcm, config, output_dir.empty() ? std::nullopt : std::optional<std::string>(output_dir));
+    Merger merger(lcm, config, output_dir.empty() ? std::nullopt : std::optional<std::string>(output_dir),
+                  append_output);
     spdlog::info("merger up (tau {} m, alpha {}), LCM {}", config.manager.segmentation.tau,
                  config.manager.model_update.alpha, lcm_url(lcm_url_arg));
     merger.run();

@@ -28,6 +28,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A scene this many frames older than the last one tracked starts a new sequence (a restarted
+// capture or replay); anything closer is a late or repeated message and is skipped.
+constexpr std::int64_t kSequenceRestart = 100;
+
 class TrackerWorker {
  public:
   TrackerWorker(lcm::LCM& lcm, TrackerConfig config, int worker_id)
@@ -53,7 +57,9 @@ class TrackerWorker {
       int queued = 0;
       while (lcm_.handleTimeout(0) > 0) ++queued;
       status_.set_queue_depth(queued);
-      if (latest_scene_) {
+      // An idle worker keeps the newest scene: if the merger assigns it an object while that
+      // frame is still open, it tracks the frame at once instead of the merger waiting for it.
+      if (latest_scene_ && filter_) {
         track(*latest_scene_);
         latest_scene_.reset();
       }
@@ -75,6 +81,7 @@ class TrackerWorker {
         spdlog::info("object {} {}", object_id_, msg.worker_id < 0 ? "retired" : "moved to another worker");
         object_id_ = -1;
         filter_.reset();
+        latest_scene_.reset();
       }
       return;
     }
@@ -95,7 +102,10 @@ class TrackerWorker {
       options.seed = config_.filter.seed + static_cast<std::uint64_t>(msg.object_id);
       filter_ = std::make_unique<ParticleFilter>(options);
       filter_->reset(pose);
-      spdlog::info("took object {} (model v{}, {} points)", object_id_, msg.version, model.cloud.size());
+      spdlog::info("took object {} (model v{} of frame {}, {} points)", object_id_, msg.version, msg.frame_seq,
+                   model.cloud.size());
+      // A scene the merger had already finished when it sent this model is not ours to track.
+      if (latest_scene_ && latest_scene_->frame_seq <= msg.frame_seq) latest_scene_.reset();
     }
     model_version_ = msg.version;
     model_box_ = model_bounding_box(model);
@@ -104,15 +114,22 @@ class TrackerWorker {
   }
 
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
-    if (object_id_ < 0) return;
     scene_cloud_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    if (msg.frame_seq + kSequenceRestart < last_frame_) {
+      spdlog::info("scene seq {} after {}: a new frame sequence", msg.frame_seq, last_frame_);
+      last_frame_ = -1;
+      latest_scene_.reset();
+    }
+    // Frames are tracked in sequence order only: a late (reordered) scene, or one the merger
+    // sends again after this worker already tracked it, is skipped.
+    if (msg.frame_seq <= last_frame_ || (latest_scene_ && msg.frame_seq <= latest_scene_->frame_seq)) return;
     Scene scene;
     if (auto error = scene_from_message(msg, scene)) {
       status_.malformed().record(chan, "invalid scene", *error);
       return;
     }
-    if (latest_scene_) status_.set_message("dropped scene " + std::to_string(latest_scene_->frame_seq));
+    if (latest_scene_ && filter_) status_.set_message("dropped scene " + std::to_string(latest_scene_->frame_seq));
     latest_scene_ = std::move(scene);
   }
 

@@ -9,10 +9,12 @@
 namespace mfot::service {
 
 namespace {
-std::ofstream open_csv(const std::string& path, const char* header) {
-  std::ofstream out(path, std::ios::out | std::ios::trunc);
+std::ofstream open_csv(const std::string& path, const char* header, bool append) {
+  std::error_code ec;
+  const bool continued = append && std::filesystem::file_size(path, ec) > 0 && !ec;
+  std::ofstream out(path, std::ios::out | (continued ? std::ios::app : std::ios::trunc));
   if (!out) throw std::runtime_error(path + ": cannot create file");
-  out << header << '\n';
+  if (!continued) out << header << '\n';
   return out;
 }
 
@@ -23,12 +25,12 @@ std::uint64_t voxel_key(const Eigen::Vector3f& p, float inv) {
 }
 }  // namespace
 
-RunWriter::RunWriter(const std::string& dir) : dir_(dir) {
+RunWriter::RunWriter(const std::string& dir, bool append) : dir_(dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir_ + "/labels", ec);
   if (ec) throw std::runtime_error(dir_ + ": cannot create run directory: " + ec.message());
-  poses_ = open_csv(dir_ + "/poses.csv", "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale");
-  fitting_ = open_csv(dir_ + "/fitting.csv", "frame,object_id,fitting_distance_m");
+  poses_ = open_csv(dir_ + "/poses.csv", "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale", append);
+  fitting_ = open_csv(dir_ + "/fitting.csv", "frame,object_id,fitting_distance_m", append);
 }
 
 void RunWriter::write_pose(std::int64_t frame, std::int64_t utime, std::int32_t object_id, const Pose& pose,
@@ -74,9 +76,8 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
   std::unordered_map<std::uint64_t, std::int32_t> label_of_voxel;
   label_of_voxel.reserve(scene_points.size() * 2);
   for (std::size_t k = 0; k < scene_points.size(); ++k) {
-    if (labels[k] > 0) label_of_voxel.emplace(voxel_key(scene_points[k], inv), labels[k]);
+    label_of_voxel.emplace(voxel_key(scene_points[k], inv), std::max(labels[k], 0));
   }
-  if (label_of_voxel.empty()) return out;
   for (int v = 0; v < height; ++v) {
     const float ry = (static_cast<float>(v) - cy) / fy;
     for (int u = 0; u < width; ++u) {
@@ -85,7 +86,9 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
       const float z = static_cast<float>(depth_mm[i]) * 0.001f;
       const Eigen::Vector3f p((static_cast<float>(u) - cx) / fx * z, ry * z, z);
       const auto it = label_of_voxel.find(voxel_key(p, inv));
-      if (it != label_of_voxel.end()) out.pixels[i] = static_cast<std::uint16_t>(std::min(it->second, 65535));
+      out.pixels[i] = it == label_of_voxel.end()
+                          ? kNotScenePoint
+                          : static_cast<std::uint16_t>(std::min(it->second, kNotScenePoint - 1));
     }
   }
   return out;

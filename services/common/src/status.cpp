@@ -30,9 +30,12 @@ void StatusReporter::frame_done(double latency_ms) {
 }
 
 void StatusReporter::tick() {
+  if (Clock::now() - last_report_ >= std::chrono::seconds(1)) publish();
+}
+
+void StatusReporter::publish() {
   const auto now = Clock::now();
-  const double elapsed = std::chrono::duration<double>(now - last_report_).count();
-  if (elapsed < 1.0) return;
+  const double elapsed = std::max(1e-3, std::chrono::duration<double>(now - last_report_).count());
   const std::vector<double> window(latencies_ms_.begin(), latencies_ms_.end());
   service_status_t msg;
   msg.utime = now_utime();

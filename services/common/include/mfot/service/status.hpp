@@ -25,6 +25,8 @@ class StatusReporter {
 
   // Publishes and logs when a second has passed since the last report.
   void tick();
+  // Publishes and logs now (a state change others should hear at once, e.g. before exiting).
+  void publish();
 
  private:
   using Clock = std::chrono::steady_clock;
