@@ -6,6 +6,11 @@
 // simulator (or of a rendered TUM folder) is written to --groundtruth-dir for offline scoring.
 // Section `capture` of the config; the command line overrides it.
 //
+// The source is read on its own thread one frame ahead, so a source that stalls (a camera that
+// stops delivering, a file that cannot be read) never silences the service: it keeps reporting
+// on MFOT_STATUS that it waits for its source, and carries on when frames come again. When a
+// finite source ends, that is reported on MFOT_STATUS before the service exits with 0.
+//
 // --measure-encodings N prints bytes per frame of every encoding for the first N frames of the
 // source and exits (no LCM).
 
@@ -22,10 +27,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
+#include <variant>
 
 namespace mfot::capture {
 namespace {
@@ -38,59 +48,163 @@ double milliseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// A source that has not delivered the next frame for this long is reported as stalled.
+constexpr std::chrono::seconds kStallReport{1};
+
+// Reads the source on its own thread, one frame ahead of the publisher. Seeking to the start
+// frame and rewinding for --loop happen there too, so every source call stays on one thread.
+class SourceReader {
+ public:
+  struct Frame {
+    SourceFrame item;
+    bool rewound = false;  // the first frame after a --loop rewind
+    double read_ms = 0.0;
+  };
+  struct Ended {};
+  struct Failed {
+    std::string error;
+  };
+  using Result = std::variant<Frame, Ended, Failed>;
+
+  SourceReader(std::unique_ptr<FrameSource> source, std::int64_t start_frame, bool loop)
+      : state_(std::make_shared<State>()) {
+    state_->source = std::move(source);
+    // The thread shares the state, so a thread still blocked in the source when the service
+    // exits never touches freed memory.
+    thread_ = std::thread([state = state_, start_frame, loop] { read_all(*state, start_frame, loop); });
+  }
+  SourceReader(const SourceReader&) = delete;
+  SourceReader& operator=(const SourceReader&) = delete;
+
+  ~SourceReader() {
+    std::unique_lock lock(state_->mutex);
+    state_->stop = true;
+    state_->changed.notify_all();
+    if (state_->changed.wait_for(lock, std::chrono::seconds(2), [&] { return state_->done; })) {
+      lock.unlock();
+      thread_.join();
+    } else {
+      spdlog::warn("{} is still blocked in a read; exiting without it", state_->name);
+      thread_.detach();
+    }
+  }
+
+  // The next result, or nullopt when none came before `deadline`.
+  std::optional<Result> next(Clock::time_point deadline) {
+    std::unique_lock lock(state_->mutex);
+    if (!state_->changed.wait_until(lock, deadline, [&] { return state_->result.has_value(); })) return std::nullopt;
+    Result result = std::move(*state_->result);
+    state_->result.reset();
+    state_->changed.notify_all();
+    return result;
+  }
+
+ private:
+  struct State {
+    std::unique_ptr<FrameSource> source;
+    std::string name;
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::optional<Result> result;  // handed to the publisher, at most one at a time
+    bool stop = false;
+    bool done = false;
+  };
+
+  static void read_all(State& state, std::int64_t start_frame, bool loop) {
+    FrameSource& source = *state.source;
+    {
+      std::lock_guard lock(state.mutex);
+      state.name = source.name();
+    }
+    const auto hand_over = [&state](Result result) {
+      std::unique_lock lock(state.mutex);
+      state.changed.wait(lock, [&] { return state.stop || !state.result.has_value(); });
+      if (state.stop) return false;
+      state.result = std::move(result);
+      state.changed.notify_all();
+      return true;
+    };
+    try {
+      if (start_frame > 0) source.seek(start_frame);
+      bool rewound = false;
+      for (;;) {
+        const auto start = Clock::now();
+        std::optional<SourceFrame> item = source.next();
+        if (!item) {
+          if (service::stop_requested()) break;
+          if (loop && !rewound && source.rewind()) {
+            if (start_frame > 0) source.seek(start_frame);
+            rewound = true;
+            continue;
+          }
+          hand_over(Ended{});
+          break;
+        }
+        if (!hand_over(Frame{std::move(*item), rewound, milliseconds_since(start)})) break;
+        rewound = false;
+      }
+    } catch (const std::exception& e) {
+      hand_over(Failed{e.what()});
+    }
+    std::lock_guard lock(state.mutex);
+    state.done = true;
+    state.changed.notify_all();
+  }
+
+  std::shared_ptr<State> state_;
+  std::thread thread_;
+};
+
 class CaptureService {
  public:
   CaptureService(lcm::LCM& lcm, CaptureSettings settings, std::unique_ptr<FrameSource> source)
       : lcm_(lcm),
         settings_(std::move(settings)),
-        source_(std::move(source)),
+        source_name_(source->name()),
+        source_live_(source->live()),
         schedule_(settings_.speed),
-        status_(lcm, "capture", 0, source_->kind()) {
+        status_(lcm, "capture", 0, source->kind()),
+        reader_(std::move(source), settings_.start_frame, settings_.loop) {
     if (settings_.rate == RateMode::kLockstep) lcm_.subscribe(kPoses, &CaptureService::on_poses, this);
     if (!settings_.groundtruth_dir.empty()) truth_writer_.emplace(settings_.groundtruth_dir);
   }
 
   int run() {
-    if (settings_.start_frame > 0) source_->seek(settings_.start_frame);
-    spdlog::info("publishing {} on {} ({} rate{}, depth {}, colour {})", source_->name(), kFrame,
+    spdlog::info("publishing {} on {} ({} rate{}, depth {}, colour {})", source_name_, kFrame,
                  to_string(settings_.rate),
                  settings_.rate == RateMode::kRealtime ? fmt::format(", speed {}", settings_.speed) : "",
                  service::to_string(settings_.encoding.depth), service::to_string(settings_.encoding.color));
-    bool rewound = false;
     while (!service::stop_requested()) {
       if (settings_.max_frames > 0 && seq_ >= settings_.max_frames) {
         spdlog::info("published --max-frames {} frames; exiting", settings_.max_frames);
-        return 0;
+        return finish("published --max-frames " + std::to_string(settings_.max_frames) + " frames", 0);
       }
-      const auto read_start = Clock::now();
-      std::optional<SourceFrame> item = source_->next();
-      if (!item) {
-        if (service::stop_requested()) break;
-        if (settings_.loop && !rewound && source_->rewind()) {
-          if (settings_.start_frame > 0) source_->seek(settings_.start_frame);
-          spdlog::info("{} ended after {} frames; looping", source_->name(), seq_);
-          rewound = true;
-          continue;
-        }
-        spdlog::info("{} ended: {} frames published; exiting", source_->name(), seq_);
-        return 0;
+      std::optional<SourceReader::Result> result = wait_for_source();
+      if (!result) break;
+      if (std::holds_alternative<SourceReader::Ended>(*result)) {
+        spdlog::info("{} ended: {} frames published; exiting", source_name_, seq_);
+        return finish("source ended after " + std::to_string(seq_) + " frames", 0);
       }
+      if (const auto* failed = std::get_if<SourceReader::Failed>(&*result)) {
+        spdlog::error("{}: {}", source_name_, failed->error);
+        return finish("source failed: " + failed->error, 1);
+      }
+      auto& [item, rewound, read_ms] = std::get<SourceReader::Frame>(*result);
       if (rewound) {
+        spdlog::info("{} ended after {} frames; looping", source_name_, seq_);
         // Keep capture time increasing across loops: continue one frame period after the last.
-        loop_offset_us_ = last_capture_utime_ + frame_period_us_ - item->frame.capture_utime;
+        loop_offset_us_ = last_capture_utime_ + frame_period_us_ - item.frame.capture_utime;
       }
-      rewound = false;
-      item->frame.capture_utime += loop_offset_us_;
-      if (seq_ > 0 && item->frame.capture_utime > last_capture_utime_) {
-        frame_period_us_ = item->frame.capture_utime - last_capture_utime_;
+      item.frame.capture_utime += loop_offset_us_;
+      if (seq_ > 0 && item.frame.capture_utime > last_capture_utime_) {
+        frame_period_us_ = item.frame.capture_utime - last_capture_utime_;
       }
-      const double read_ms = milliseconds_since(read_start);
 
-      if (settings_.rate == RateMode::kRealtime && !source_->live()) {
-        if (!wait_until(schedule_.due(item->frame.capture_utime, Clock::now()))) break;
+      if (settings_.rate == RateMode::kRealtime && !source_live_) {
+        if (!wait_until(schedule_.due(item.frame.capture_utime, Clock::now()))) break;
       }
       const auto publish_start = Clock::now();
-      publish(*item);
+      publish(item);
       status_.frame_done(read_ms + milliseconds_since(publish_start));
       status_.tick();
       if (settings_.rate == RateMode::kLockstep && !wait_for_pipeline()) break;
@@ -102,19 +216,58 @@ class CaptureService {
       }
     }
     spdlog::info("stopped: {} frames published", seq_);
-    return 0;
+    return finish("stopped after " + std::to_string(seq_) + " frames", 0);
   }
 
  private:
+  // Says why the service ends on MFOT_STATUS at once, so the process group hears it.
+  int finish(const std::string& why, int exit_code) {
+    status_.set_message(why);
+    status_.publish();
+    return exit_code;
+  }
+
+  // The next source result, serving LCM and status meanwhile; a wait longer than kStallReport is
+  // reported as a stalled source. nullopt when a stop was requested.
+  std::optional<SourceReader::Result> wait_for_source() {
+    const auto start = Clock::now();
+    auto next_report = start + kStallReport;
+    while (!service::stop_requested()) {
+      if (auto result = reader_.next(Clock::now() + std::chrono::milliseconds(20))) {
+        const double waited_s = std::chrono::duration<double>(Clock::now() - start).count();
+        if (waited_s >= std::chrono::duration<double>(kStallReport).count()) {
+          spdlog::info("{} resumed after {:.1f} s", source_name_, waited_s);
+          status_.set_message(fmt::format("source resumed after a {:.1f} s stall", waited_s));
+          status_.publish();
+        }
+        return result;
+      }
+      const auto now = Clock::now();
+      if (now >= next_report) {
+        const double waited_s = std::chrono::duration<double>(now - start).count();
+        if (next_report == start + kStallReport) spdlog::warn("{} stalled: no frame for {:.1f} s", source_name_, waited_s);
+        status_.set_message(fmt::format("source stalled: no frame for {:.1f} s", waited_s));
+        status_.publish();
+        next_report = now + kStallReport;
+      }
+      if (!service::handle_for(lcm_, 0)) {
+        spdlog::error("LCM receive failed; stopping");
+        return std::nullopt;
+      }
+      status_.tick();
+    }
+    return std::nullopt;
+  }
+
   void publish(const SourceFrame& item) {
     const frame_t message =
-        service::encode_frame(item.frame, settings_.encoding, seq_, source_->name(), service::now_utime());
+        service::encode_frame(item.frame, settings_.encoding, seq_, source_name_, service::now_utime());
     if (lcm_.publish(kFrame, &message) != 0) spdlog::warn("LCM publish of frame seq {} failed", seq_);
     last_capture_utime_ = item.frame.capture_utime;
     if (!truth_writer_) return;
     if (!item.truth) {
       if (!warned_no_truth_) {
-        spdlog::warn("{} has no ground truth for frame {}; nothing written to {}", source_->name(), item.index,
+        spdlog::warn("{} has no ground truth for frame {}; nothing written to {}", source_name_, item.index,
                      settings_.groundtruth_dir);
         warned_no_truth_ = true;
       }
@@ -169,10 +322,12 @@ class CaptureService {
 
   lcm::LCM& lcm_;
   CaptureSettings settings_;
-  std::unique_ptr<FrameSource> source_;
+  std::string source_name_;
+  bool source_live_;
   RealtimeSchedule schedule_;
   LockstepGate gate_;
   service::StatusReporter status_;
+  SourceReader reader_;
   std::optional<service::GroundTruthWriter> truth_writer_;
   std::int64_t seq_ = 0;
   std::int64_t last_capture_utime_ = 0;
