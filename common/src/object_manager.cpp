@@ -3,6 +3,7 @@
 #include "mfot/particle_filter.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +16,10 @@ void ObjectManagerOptions::validate() const {
   support.validate();
   if (min_object_points < 1) throw std::invalid_argument("ObjectManagerOptions.min_object_points must be >= 1");
   if (growth_frames < 0) throw std::invalid_argument("ObjectManagerOptions.growth_frames must be >= 0");
+  if (!(propagation_radius >= 0.f && propagation_radius <= 0.1f)) {
+    throw std::invalid_argument("ObjectManagerOptions.propagation_radius must be in [0, 0.1] m, got " +
+                                std::to_string(propagation_radius));
+  }
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -25,7 +30,8 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options)
     : options_((options.validate(), options)),
       segmenter_(options.segmentation),
       detector_(options.new_objects),
-      support_(options.support) {}
+      support_(options.support),
+      wave_hash_(std::max(options.propagation_radius, 1e-3f)) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                                                  std::span<const std::int32_t> cluster_of_point,
@@ -35,13 +41,25 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                                 std::to_string(cluster_of_point.size()) + " entries for " +
                                 std::to_string(scene.size()) + " scene points");
   }
+  if (scene.colors.size() != scene.size()) {
+    throw std::invalid_argument("ObjectManager::process: the scene has " + std::to_string(scene.colors.size()) +
+                                " colours for " + std::to_string(scene.size()) + " points");
+  }
+  // A non-finite point would become a non-finite model and pose (and a NaN spatial-hash key).
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    if (!scene.positions[i].allFinite()) {
+      throw std::invalid_argument("ObjectManager::process: scene point " + std::to_string(i) + " is non-finite");
+    }
+  }
   frame_.created.clear();
   frame_.retired.clear();
 
   // 1. estimates
   for (auto& [id, object] : objects_) {
     const auto it = estimates.find(id);
-    if (it == estimates.end()) {
+    // A non-finite estimate (a diverged tracker) counts as none: the last pose is kept.
+    if (it == estimates.end() || !it->second.pose.translation.allFinite() ||
+        !it->second.pose.rotation.coeffs().allFinite() || !std::isfinite(it->second.confidence)) {
       object.stale = true;
       continue;
     }
@@ -97,7 +115,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   if (frames_ == 0 && objects_.empty()) {
     for (std::size_t c = 0; c < clusters_.size(); ++c) create_object(scene, clusters_.cluster(c));
   } else {
-    for (std::size_t c = 0; c < clusters_.size(); ++c) grow_young_object(scene, clusters_.cluster(c));
+    for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
     for (const int c : confirmed_) create_object(scene, clusters_.cluster(static_cast<std::size_t>(c)));
   }
@@ -105,51 +123,71 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   return frame_;
 }
 
-bool ObjectManager::grow_young_object(const ColoredCloud& scene, std::span<const int> cluster_points) {
-  if (options_.growth_frames == 0) return false;
-  std::int32_t owner = 0;
-  std::size_t free_count = 0;
-  for (const int i : cluster_points) {
-    const std::int32_t label = frame_.labels[static_cast<std::size_t>(i)];
-    if (label == 0) {
-      ++free_count;
-    } else if (owner == 0) {
-      owner = label;
-    } else if (label != owner) {
-      return false;  // the cluster joins several objects (contact): never guess
+void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points) {
+  const float radius = options_.propagation_radius;
+  if (radius <= 0.f) return;
+  free_.clear();
+  wave_.clear();
+  for (const int i : cluster_points) (frame_.labels[static_cast<std::size_t>(i)] == 0 ? free_ : wave_).push_back(i);
+  if (free_.empty() || wave_.empty()) return;
+  // Waves: each free point within radius of the last wave's points takes its nearest one's
+  // label and joins the next wave, so labels spread along the cluster's surface (hop order),
+  // never across a gap wider than radius. Deterministic: points and ties in index order.
+  std::map<std::int32_t, std::vector<int>> gained;
+  while (!wave_.empty() && !free_.empty()) {
+    wave_points_.clear();
+    for (const int i : wave_) wave_points_.push_back(scene.positions[static_cast<std::size_t>(i)]);
+    wave_hash_.build(wave_points_);
+    next_wave_.clear();
+    std::size_t kept = 0;
+    for (const int i : free_) {
+      const int nearest = wave_hash_.nearest(scene.positions[static_cast<std::size_t>(i)], radius);
+      if (nearest < 0) {
+        free_[kept++] = i;
+        continue;
+      }
+      next_wave_.push_back(i);
+      wave_labels_.push_back(frame_.labels[static_cast<std::size_t>(wave_[static_cast<std::size_t>(nearest)])]);
+    }
+    // Labels are set after the wave's queries so every point of a wave sees the same wave.
+    for (std::size_t k = 0; k < next_wave_.size(); ++k) {
+      frame_.labels[static_cast<std::size_t>(next_wave_[k])] = wave_labels_[k];
+      gained[wave_labels_[k]].push_back(next_wave_[k]);
+    }
+    wave_labels_.clear();
+    free_.resize(kept);
+    std::swap(wave_, next_wave_);
+  }
+  for (auto& [id, points] : gained) {
+    ManagedObject& object = objects_.at(id);
+    object.support += points.size();
+    // A young object grows by a part entering the view, not by a few fringe points.
+    const bool young = frames_ - object.created_frame < options_.growth_frames;
+    if (young && points.size() >= options_.min_object_points) {
+      std::sort(points.begin(), points.end());
+      grow_model(object, scene, points);
     }
   }
-  if (owner == 0 || free_count < options_.min_object_points ||
-      static_cast<float>(free_count) <= options_.new_objects.min_unassigned_share * static_cast<float>(cluster_points.size())) {
-    return false;
-  }
-  ManagedObject& object = objects_.at(owner);
-  if (frames_ - object.created_frame >= options_.growth_frames) return false;
+}
+
+void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained) {
   const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
   const std::size_t room = options_.max_model_points > object.model.cloud.size()
                                ? options_.max_model_points - object.model.cloud.size()
                                : 0;
-  const std::size_t take = std::min(room, free_count);
-  std::size_t seen = 0;
-  std::size_t taken = 0;
+  const std::size_t take = std::min(room, gained.size());
+  if (take == 0) return;
   std::vector<Rgb8> added_colors;
-  for (const int i : cluster_points) {
-    const auto k = static_cast<std::size_t>(i);
-    if (frame_.labels[k] != 0) continue;
-    frame_.labels[k] = owner;
-    // Deterministic even subsampling of the free points into the room left in the model.
-    if (taken < take && seen * take >= taken * free_count) {
-      object.model.cloud.push_back(camera_to_object * scene.positions[k], scene.colors[k]);
-      added_colors.push_back(scene.colors[k]);
-      ++taken;
-    }
-    ++seen;
+  added_colors.reserve(take);
+  // Deterministic even subsampling of the gained points into the room left in the model.
+  for (std::size_t k = 0; k < take; ++k) {
+    const auto i = static_cast<std::size_t>(gained[k * gained.size() / take]);
+    object.model.cloud.push_back(camera_to_object * scene.positions[i], scene.colors[i]);
+    added_colors.push_back(scene.colors[i]);
   }
   const auto features = compute_smr(added_colors, options_.smr);
   object.model.features.insert(object.model.features.end(), features.begin(), features.end());
-  object.support += free_count;
   ++object.version;
-  return true;
 }
 
 void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> cluster_points) {

@@ -8,6 +8,7 @@
 #include "mfot/model_updater.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
 #include <cstdint>
@@ -27,9 +28,14 @@ struct ObjectManagerOptions {
   SmrOptions smr;                       // colour feature of model points
   std::size_t min_object_points = 50;   // >= 1: smaller clusters never become objects
   std::size_t max_model_points = 1500;  // >= min_object_points: a new model is subsampled to this size
-  // An object younger than this (frames) that a cluster connects to unexplained points grows by
-  // them instead of a new object being made: objects entering the view (a hand and its arm
-  // reaching in from the border) are seen a part at a time. 0 disables growth.
+  // Unexplained points of a cluster that also holds segmented points take the label of the
+  // nearest segmented point reachable through unexplained points in steps of at most this
+  // (metres; the preprocess cluster tolerance): the rest of an arm entering the view, what tau
+  // missed of an object. 0 disables it (only tau's segmentation labels points).
+  float propagation_radius = 0.015f;
+  // An object younger than this (frames) also grows its model by the points it gains so:
+  // objects entering the view (a hand and its arm reaching in from the border) are seen a part
+  // at a time. 0 disables growth.
   int growth_frames = 300;
   void validate() const;
 };
@@ -63,7 +69,9 @@ struct ObjectManagerFrame {
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames;
-//   5. grow young objects by the unexplained points of clusters that connect only to them;
+//   5. unexplained points of clusters that hold segmented points take the label of the nearest
+//      one reachable through unexplained points (breadth first, in waves); young objects grow
+//      their models by the points they gain;
 //   6. create objects from clusters that no object explains: at the first frame every cluster,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
 //      model is the cluster in a frame at its centroid, axis-aligned with the camera.
@@ -77,7 +85,8 @@ class ObjectManager {
   const ObjectManagerOptions& options() const { return options_; }
 
   // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
-  // (-1 = none); estimates: by object id, for this frame.
+  // (-1 = none); estimates: by object id, for this frame (a non-finite one counts as missing).
+  // Throws std::invalid_argument for mismatched sizes or a non-finite scene point.
   const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
                                     const std::map<std::int32_t, ObjectEstimate>& estimates);
 
@@ -87,8 +96,9 @@ class ObjectManager {
 
  private:
   void create_object(const ColoredCloud& scene, std::span<const int> cluster_points);
-  // Step 5 for one cluster; true when the cluster's free points went to a young object.
-  bool grow_young_object(const ColoredCloud& scene, std::span<const int> cluster_points);
+  // Step 5 for one cluster.
+  void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
+  void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
 
   ObjectManagerOptions options_;
   Segmenter segmenter_;
@@ -104,6 +114,10 @@ class ObjectManager {
   std::vector<SegmentationObject> seg_objects_;
   std::vector<int> confirmed_;
   ColoredCloud segment_;
+  SpatialHash wave_hash_{0.015f};
+  std::vector<int> free_, wave_, next_wave_;
+  std::vector<std::int32_t> wave_labels_;
+  std::vector<Eigen::Vector3f> wave_points_;
 };
 
 }  // namespace mfot
