@@ -198,7 +198,13 @@ class ReliabilityTest(unittest.TestCase):
              "--drop", "MFOT_SCENE=0.1", "--drop", "MFOT_MODEL=0.1", "--drop", "MFOT_ESTIMATE=0.1",
              "--drop", "MFOT_HEARTBEAT=0.05", "--swap", "0.05", "--seed", "7"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        self.addCleanup(lambda: relay.poll() is None and relay.kill())
+
+        def stop_relay():
+            if relay.poll() is None:
+                relay.kill()
+            relay.communicate()
+
+        self.addCleanup(stop_relay)
         ready, _, _ = select.select([relay.stdout], [], [], 20)
         self.assertTrue(ready and relay.stdout.readline().strip() == "ready", "relay did not start")
 
@@ -207,6 +213,7 @@ class ReliabilityTest(unittest.TestCase):
         self.assertGroupOk(group, group.wait(240))
         relay.send_signal(signal.SIGTERM)
         out, err = relay.communicate(timeout=20)
+        self.assertEqual(relay.returncode, 0, err)
         counts = json.loads(out.strip().splitlines()[-1])
         print("relay:", json.dumps(counts))
         for channel in ("MFOT_SCENE", "MFOT_MODEL", "MFOT_ESTIMATE"):
@@ -298,6 +305,27 @@ class ReliabilityTest(unittest.TestCase):
         self.assertIn(f"tracker{worker} exited with -9; not restarting", group.stdout_path.read_text())
         self.assertEqual([p.frame_seq for _, p in logged(group.out, "MFOT_POSES")], list(range(frames)),
                          "no frame lost")
+
+    def test_restarted_tracker_gets_its_object_back(self):
+        """With the default restarts, SIGKILL a worker: mfot-run restarts it at once, the merger
+        sends the restarted worker its object again, and no frame is lost."""
+        frames = 80
+        group, bus = self.start_group(7716, "--scenario", "static", "--workers", "3", "--max-frames", str(frames))
+        bus.wait_for("poses of frame 20", poses_with_seq_at_least(20), 90)
+        hb = bus.wait_for("a heartbeat naming an object", lambda ev: next(
+            (hb for _, hb in reversed(ev["MFOT_HEARTBEAT"]) if hb.object_id >= 0), None), 10)
+        old = group.kill(f"tracker{hb.worker_id}")
+        killed_at = time.monotonic()
+        bus.wait_for("the worker restarted", lambda ev: group.pids().get(f"tracker{hb.worker_id}", old) != old, 10)
+        taken_at = bus.wait_for("a heartbeat naming the object again", lambda ev: next(
+            (t for t, h in ev["MFOT_HEARTBEAT"] if t > killed_at and h.object_id == hb.object_id), None),
+            WORKER_TIMEOUT_S + 5)
+        print(f"object {hb.object_id} held again {taken_at - killed_at:.2f} s after its worker was killed")
+        self.assertLess(taken_at - killed_at, WORKER_TIMEOUT_S + 1.0)
+        self.assertGroupOk(group, group.wait(180))
+        poses = logged(group.out, "MFOT_POSES")
+        self.assertEqual([p.frame_seq for _, p in poses], list(range(frames)), "no frame lost")
+        self.assertFalse(any(o.stale for o in poses[-1][1].objects), "every object tracked at the end")
 
     # 3 ------------------------------------------------------------------------------------------
 
