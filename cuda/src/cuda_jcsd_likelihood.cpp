@@ -18,16 +18,16 @@ void validate(const CudaJcsdLikelihoodOptions& options) {
     throw std::invalid_argument("CudaJcsdLikelihoodOptions.device must be >= 0, got " +
                                 std::to_string(options.device));
   }
-  if (options.items_per_warp < 1 || options.items_per_warp > 16) {
-    throw std::invalid_argument("CudaJcsdLikelihoodOptions.items_per_warp must be in [1, 16], got " +
-                                std::to_string(options.items_per_warp));
+  if (options.point_splits < 0 || options.point_splits > 64) {
+    throw std::invalid_argument("CudaJcsdLikelihoodOptions.point_splits must be in [0, 64] (0: automatic), got " +
+                                std::to_string(options.point_splits));
   }
 }
 
 CudaJcsdLikelihood::CudaJcsdLikelihood(const CudaJcsdLikelihoodOptions& options) : options_(options) {
   validate(options_);
   device_ = std::make_unique<cuda_detail::JcsdDevice>(
-      cuda_detail::DeviceOptions{options_.device, options_.items_per_warp});
+      cuda_detail::DeviceOptions{options_.device, options_.point_splits});
 }
 
 CudaJcsdLikelihood::~CudaJcsdLikelihood() = default;
@@ -66,7 +66,8 @@ void CudaJcsdLikelihood::evaluate(std::span<const Pose> particles, const Hypothe
   }
   if (particles.empty()) return;
 
-  cuda_detail::PointRecord* points = device_->point_staging(n);
+  const cuda_detail::FrameStaging frame = device_->stage_frame(n, particles.size());
+  cuda_detail::PointRecord* points = frame.points;
   for (std::size_t j = 0; j < n; ++j) {
     const Eigen::Vector3f& z = data.points[j];
     const SmrFeature& h = data.features[j];
@@ -75,19 +76,13 @@ void CudaJcsdLikelihood::evaluate(std::span<const Pose> particles, const Hypothe
       throw std::invalid_argument("CudaJcsdLikelihood::evaluate: feature " + std::to_string(j) +
                                   " has hue_bin outside [0, 6) or gray_bin not 6 or 7");
     }
-    points[j] = {z.x(),
-                 z.y(),
-                 z.z(),
-                 static_cast<std::int32_t>(h.hue_bin),
-                 h.hue_weight_lo,
-                 h.hue_weight_hi,
-                 h.gray_bin == 6 ? h.gray_weight : 0.f,
-                 h.gray_bin == 7 ? h.gray_weight : 0.f};
+    points[j] = {z.x(), z.y(), z.z(), static_cast<std::int32_t>(h.hue_bin),
+                 h.hue_weight_lo, h.hue_weight_hi, h.gray_weight, static_cast<std::int32_t>(h.gray_bin)};
   }
 
   // u = (R^T (z - t) - origin) / cell = A z + b, A = R^T / cell, b = -(R^T t + origin) / cell.
   const float inv_cell = 1.f / grid_.cell_size;
-  cuda_detail::ParticleRecord* records = device_->particle_staging(particles.size());
+  cuda_detail::ParticleRecord* records = frame.particles;
   for (std::size_t i = 0; i < particles.size(); ++i) {
     const Eigen::Matrix3f rt = particles[i].rotation.toRotationMatrix().transpose();
     const Eigen::Matrix3f a = rt * inv_cell;
@@ -105,7 +100,7 @@ void CudaJcsdLikelihood::evaluate(std::span<const Pose> particles, const Hypothe
 
 CudaJcsdTiming CudaJcsdLikelihood::last_timing() const {
   const cuda_detail::DeviceTiming t = device_->last_timing();
-  return {t.kernel_ms, t.transfer_ms};
+  return {t.kernel_ms, t.transfer_ms, t.splits};
 }
 
 const std::string& CudaJcsdLikelihood::device_description() const { return device_->description(); }

@@ -1,46 +1,54 @@
 // CUDA JCSD hypothesis evaluation, thesis 3.3, equations 3.18 to 3.20 (the GPU side; the host
 // side packs the data in cuda_jcsd_likelihood.cpp). Steps:
-//  1. upload_grid: the model's J (8 floats per corner) goes to the device through pinned memory
-//     and is laid out for the kernel (see GridView): with a 9-float corner stride and
-//     bank-conflict-free padded strides when it fits in shared memory (objects up to ~30 cm at
-//     15 mm on sm_90), else as six hue-pair float4 grids read through the read-only cache.
+//  1. upload_grid: the model's J (8 floats per corner) goes to the device through pinned memory.
+//     The kernel reads it as 8 planes, one per SMR bin, whose elements hold a corner's value and
+//     its x neighbour's (8 bytes), with padded strides (GridLayout): one point's three non-zero
+//     SMR bins (3.19) at the 8 corners of its cell are 12 loads. Each block expands the compact
+//     grid into shared memory when the planes fit there; larger grids are expanded once into
+//     global memory at upload and read through the read-only cache.
 //  2. evaluate: points (32 B) and particles (48 B, the inverse pose already in grid units) go to
-//     the device with one asynchronous copy each from pinned memory, on this object's stream.
-//  3. the scoring kernel: work items are (32 particles, a chunk of points); a warp takes items
-//     in turn, one particle per lane. All lanes read the same point (a broadcast load), so the
-//     point's three non-zero SMR bins (3.19) are warp-uniform, and the particles of a filter lie
-//     close together, so the 32 lanes read the 8 corners (3.18) of the same few cells. A block
-//     of the shared-memory kernel copies the grid once and stays resident (one wave, items taken
-//     in a loop). Each lane sums its particle's score in a register (3.20); the chunks of a
-//     particle group write partial sums and the warp that finishes a group last (one integer
-//     counter per group) adds them in chunk order. No floating-point atomics: scores are
-//     deterministic.
+//     the device in one asynchronous copy from pinned memory, on this object's stream.
+//  3. the scoring kernel: one resident block of 1024 threads per multiprocessor takes work
+//     items (a tile of 16 particles, a split of the points) in turn. The 16 lanes of each half
+//     warp hold the tile's particles and read the same point, 64 points per pass of the block.
+//     Shared memory serves 8-byte loads per half warp, and since a filter's particles lie close
+//     together the half warp looks up the same or adjacent cells, which the padded strides put
+//     on distinct banks: broadcasts without bank conflicts in the common case. Each thread keeps
+//     its next point in registers while it scores the current one. The block adds its threads'
+//     sums in a fixed order (shuffles, shared memory); with several splits per tile the block
+//     that finishes a tile last (one integer counter per tile) adds the splits' sums in split
+//     order. No floating-point atomics: scores are bit-identical from call to call. Splits are
+//     chosen per call so that the items spread evenly over the multiprocessors.
 
 #include "jcsd_device.cuh"
 
 #include <cuda_runtime.h>
 
 #include <algorithm>
-#include <utility>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace mfot::cuda_detail {
 namespace {
 
 constexpr int kWarpSize = 32;
-// Shared-grid blocks hold a whole multiprocessor's worth of warps, so each SM copies the grid
-// once; global-grid blocks are smaller.
-template <bool kShared>
-constexpr int kWarpsPerBlock = kShared ? 32 : 16;
-template <bool kShared>
-constexpr int kThreadsPerBlock = kWarpSize * kWarpsPerBlock<kShared>;
-template <bool kShared>
-constexpr std::size_t kStageBytes = static_cast<std::size_t>(kWarpsPerBlock<kShared>) * 2 * kWarpSize * 16;
-constexpr int kMinChunkPoints = 8;  // below this an item's set-up outweighs its work
-constexpr int kMaxChunks = 64;      // partial sums per particle
+constexpr int kThreadsPerBlock = 1024;
+constexpr int kWarpsPerBlock = kThreadsPerBlock / kWarpSize;
+constexpr int kBins = 8;
+using PlaneElement = float2;  // one bin of a corner and of its x neighbour
+// Particles per tile: a half warp, whose lanes read one point (shared-memory loads of 8 bytes
+// are served per half warp).
+constexpr int kTile = 16;
+constexpr int kPointsPerPass = kThreadsPerBlock / kTile;  // points a block scores at once
+constexpr std::size_t kReduceBytes = kWarpsPerBlock * kTile * sizeof(float);  // one sum per warp and particle
+constexpr int kMaxSplits = 64;                            // split sums per particle
+constexpr int kMinSplitPoints = kPointsPerPass;           // fewer would leave threads idle
 constexpr std::size_t kMaxItems = std::size_t{1} << 24;  // points or particles per call
+// Device frame padding: a thread's prefetch reads up to kPointsPerPass points past the last one.
+constexpr std::size_t kFramePadBytes = kPointsPerPass * 32;
 
 void check(cudaError_t status, const char* what) {
   if (status != cudaSuccess) {
@@ -48,26 +56,27 @@ void check(cudaError_t status, const char* what) {
   }
 }
 
-// Strides (y, z) of the shared-memory layout, in corners: the smallest padding such that no two
-// corners whose indices differ by at most 2 along every axis fall on the same bank (corner
-// stride 9 floats, so corners c and c' share a bank exactly when c = c' mod 32).
-std::pair<int, int> shared_strides(const std::array<int, 3>& dims) {
+// Padded strides (y, z) of the planes, in corners. A plane element (a corner and its x
+// neighbour, 8 bytes) spans 2 of the 32 banks, so elements e and e' share banks exactly when
+// e = e' (mod 16). The strides put every corner and its 26 neighbours on different banks: lanes
+// whose particles put a point in adjacent cells read without conflicts.
+std::pair<int, int> padded_strides(const std::array<int, 3>& dims) {
   const auto conflict_free = [](int sy, int sz) {
-    for (int k = -2; k <= 2; ++k) {
-      for (int j = -2; j <= 2; ++j) {
-        for (int i = -2; i <= 2; ++i) {
-          if ((i != 0 || j != 0 || k != 0) && (((i + j * sy + k * sz) % 32) + 32) % 32 == 0) return false;
+    for (int k = -1; k <= 1; ++k) {
+      for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+          if ((i != 0 || j != 0 || k != 0) && (((i + j * sy + k * sz) % 16) + 16) % 16 == 0) return false;
         }
       }
     }
     return true;
   };
-  for (int sy = dims[0]; sy < dims[0] + 32; ++sy) {
-    for (int sz = sy * dims[1]; sz < sy * dims[1] + 32; ++sz) {
+  for (int sy = dims[0]; sy < dims[0] + 16; ++sy) {
+    for (int sz = sy * dims[1]; sz < sy * dims[1] + 16; ++sz) {
       if (conflict_free(sy, sz)) return {sy, sz};
     }
   }
-  // Not reached: the 32 values of sy cover every residue mod 32, and several residues have one.
+  // Not reached: some sy is 3 (mod 16), and then some sz is 9 (mod 16).
   return {dims[0], dims[0] * dims[1]};
 }
 
@@ -135,211 +144,223 @@ class PinnedBuffer {
   std::size_t capacity_ = 0;
 };
 
-// Two device layouts of J, both with padded strides (corner (x, y, z) at z * dxy + y * dx + x):
-//  - global memory (grids too large for shared memory): six hue-pair grids of float4, grid b
-//    holding (J(b), J((b + 1) % 6), J(6), J(7)) per corner, at b * plane + corner; one 16-byte
-//    read-only-cache load per corner. dx = 2, dxy = 4 (mod 8) spreads a cell's corners over lines.
-//  - shared memory: the 8 bins of a corner at corner * 9 + bin (a 9-float stride, so corners
-//    land on distinct banks), three 4-byte loads per corner (the non-zero bins of the point's
-//    SMR). dx and dxy are chosen so that no two corners within 2 cells of each other along every
-//    axis share a bank: the lanes of a warp, whose particles lie close together, read their
-//    corners without bank conflicts (or as broadcasts).
-constexpr int kSharedCornerFloats = 9;
-
-struct GridView {
-  const float* data;  // the layout above, in global memory
-  int plane;  // global layout: padded corners of one hue-pair grid; shared layout: float4 to copy
-  int dx;     // padded stride of y
-  int dxy;    // padded stride of z
+// J as 8 planes of floats, bin b of corner (x, y, z) at b * plane + z * stride_z + y * stride_y + x
+// (zeros in the padding). In shared memory the reduction buffer follows the planes.
+struct GridLayout {
+  const float4* raw;    // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
+  const PlaneElement* planes;  // the planes in global memory (global-memory kernel only)
+  int dim_x, dim_y;
+  int stride_y, stride_z;     // padded strides in corners
+  int plane;                  // floats per plane: stride_z * dims[2]
   float max_x, max_y, max_z;  // largest valid cell index per axis (dims - 2)
 };
 
-struct Work {
-  const float4* points;     // two float4 per point: (x, y, z, hue_bin bits), (w_lo, w_hi, w_dark, w_light)
+struct Frame {
+  const float4* points;     // two float4 per point: (x, y, z, hue_bin bits), (w_lo, w_hi, w_gray, gray_bin bits)
   int num_points;
-  int chunk_points;         // points per work item
-  int chunks;               // work items per particle group
   const float4* particles;  // three float4 per particle: rows [A | b]
   int num_particles;
-  float* partials;          // chunks x num_particles
-  unsigned* group_done;     // one counter per particle group, zero between calls
+  int splits;               // work items per tile
+  int split_points;         // points per split
+  float* partials;          // splits x (tiles * kTile) split sums (splits > 1)
+  unsigned* tile_done;      // splits done per tile, zero between calls (splits > 1)
   float* scores;
 };
 
-// One thread per padded corner: the corner's six hue-pair float4 (zeros in the padding).
-__global__ void expand_pairs_kernel(const float4* __restrict__ raw, float4* __restrict__ pairs, int dim_x,
-                                    int dim_y, int dx, int dxy, int plane) {
-  const int index = blockIdx.x * blockDim.x + threadIdx.x;
-  if (index >= plane) return;
-  const int z = index / dxy;
-  const int y = (index - z * dxy) / dx;
-  const int x = index - z * dxy - y * dx;
-  float4 lo = make_float4(0.f, 0.f, 0.f, 0.f);
-  float4 hi = lo;
-  if (x < dim_x && y < dim_y) {
-    const int s = (z * dim_y + y) * dim_x + x;
-    lo = raw[2 * s];
-    hi = raw[2 * s + 1];
+// Writes padded corner c of the planes from the compact grid.
+__device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, PlaneElement* planes) {
+  const int z = c / layout.stride_z;
+  const int rest = c - z * layout.stride_z;
+  const int y = rest / layout.stride_y;
+  const int x = rest - y * layout.stride_y;
+  const float4 zero = make_float4(0.f, 0.f, 0.f, 0.f);
+  float4 lo0 = zero, hi0 = zero, lo1 = zero, hi1 = zero;  // bins 0-3 and 4-7 at x and x + 1
+  if (x < layout.dim_x && y < layout.dim_y) {
+    const int s = (z * layout.dim_y + y) * layout.dim_x + x;
+    lo0 = __ldg(layout.raw + 2 * s);
+    hi0 = __ldg(layout.raw + 2 * s + 1);
+    if (x + 1 < layout.dim_x) {
+      lo1 = __ldg(layout.raw + 2 * s + 2);
+      hi1 = __ldg(layout.raw + 2 * s + 3);
+    }
   }
-  const float bins[6] = {lo.x, lo.y, lo.z, lo.w, hi.x, hi.y};
+  const float here[kBins] = {lo0.x, lo0.y, lo0.z, lo0.w, hi0.x, hi0.y, hi0.z, hi0.w};
+  const float next[kBins] = {lo1.x, lo1.y, lo1.z, lo1.w, hi1.x, hi1.y, hi1.z, hi1.w};
 #pragma unroll
-  for (int b = 0; b < 6; ++b) {
-    pairs[b * plane + index] = make_float4(bins[b], bins[(b + 1) % 6], hi.z, hi.w);
-  }
+  for (int b = 0; b < kBins; ++b) planes[b * layout.plane + c] = make_float2(here[b], next[b]);
 }
 
-// One thread per float of the shared-memory layout (zeros in the padding).
-__global__ void expand_shared_layout_kernel(const float* __restrict__ raw, float* __restrict__ out, int dim_x,
-                                            int dim_y, int dx, int dxy, int total) {
-  const int index = blockIdx.x * blockDim.x + threadIdx.x;
-  if (index >= total) return;
-  const int corner = index / kSharedCornerFloats;
-  const int bin = index - corner * kSharedCornerFloats;
-  const int z = corner / dxy;
-  const int y = (corner - z * dxy) / dx;
-  const int x = corner - z * dxy - y * dx;
-  out[index] = (bin < 8 && x < dim_x && y < dim_y) ? raw[((z * dim_y + y) * dim_x + x) * 8 + bin] : 0.f;
-}
-
-__device__ __forceinline__ float correlate(const float4 corner, const float4 h) {
-  return fmaf(corner.x, h.x, fmaf(corner.y, h.y, fmaf(corner.z, h.z, corner.w * h.w)));
+// One thread per padded corner: the planes in global memory, for grids too large for shared memory.
+__global__ void expand_planes_kernel(GridLayout layout, PlaneElement* planes) {
+  const int c = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  if (c < layout.plane) expand_corner(layout, c, planes);
 }
 
 __device__ __forceinline__ float lerp(float a, float b, float t) { return fmaf(t, b - a, a); }
 
-// Sum of 3.19 over the points [first, last) for the particle whose rows are r0, r1, r2.
-// Sum of 3.19 over the points [first, last) for the particle whose rows are r0, r1, r2. The
-// points go through `stage` (this warp's 64 float4 of shared memory), 32 at a time, in one
-// coalesced load, so the loop pays one memory latency per 32 points; every lane then reads the
-// same point (a broadcast).
 template <bool kShared>
-__device__ __forceinline__ float score_points(const float* grid, const GridView& view,
-                                              const float4* __restrict__ points, float4* stage, int first,
-                                              int last, float4 r0, float4 r1, float4 r2) {
-  const int lane = static_cast<int>(threadIdx.x) % kWarpSize;
-  float sum = 0.f;
-  for (int base = first; base < last; base += kWarpSize) {
-    const int count = min(kWarpSize, last - base);
-    __syncwarp();  // the previous batch has been read
-    if (lane < count) {
-      stage[2 * lane] = __ldg(points + 2 * (base + lane));
-      stage[2 * lane + 1] = __ldg(points + 2 * (base + lane) + 1);
-    }
-    __syncwarp();
-#pragma unroll 2
-    for (int i = 0; i < count; ++i) {
-      const float4 z = stage[2 * i];
-      const float4 h = stage[2 * i + 1];
-      const float ux = fmaf(r0.x, z.x, fmaf(r0.y, z.y, fmaf(r0.z, z.z, r0.w)));
-      const float uy = fmaf(r1.x, z.x, fmaf(r1.y, z.y, fmaf(r1.z, z.z, r1.w)));
-      const float uz = fmaf(r2.x, z.x, fmaf(r2.y, z.y, fmaf(r2.z, z.z, r2.w)));
-      const float fx = floorf(ux);
-      const float fy = floorf(uy);
-      const float fz = floorf(uz);
-      // False for NaN too: such points, like those outside the grid, score 0.
-      const bool inside = fx >= 0.f && fx <= view.max_x && fy >= 0.f && fy <= view.max_y &&
-                          fz >= 0.f && fz <= view.max_z;
-      const int cell = inside ? (__float2int_rz(fz) * view.dxy + __float2int_rz(fy) * view.dx +
-                                 __float2int_rz(fx))
-                              : 0;
-      const int hue_bin = __float_as_int(z.w);
-      // 3.19 at the 8 corners of the cell: d[corner], corner bits (x, y, z) from the lowest.
-      float d[8];
-      if constexpr (kShared) {
-        // The point's three non-zero bins (warp-uniform): hue_bin, hue_bin + 1 and one achromatic.
-        const int bin_hi = hue_bin == 5 ? 0 : hue_bin + 1;
-        const int bin_gray = h.w > 0.f ? 7 : 6;
-        const float w_gray = h.z + h.w;  // one of the two is 0
-        const float* base = grid + cell * kSharedCornerFloats;
-#pragma unroll
-        for (int k = 0; k < 8; ++k) {
-          const float* corner =
-              base + ((k & 1) + ((k >> 1) & 1) * view.dx + (k >> 2) * view.dxy) * kSharedCornerFloats;
-          d[k] = fmaf(h.x, corner[hue_bin], fmaf(h.y, corner[bin_hi], w_gray * corner[bin_gray]));
-        }
-      } else {
-        const float4* base = reinterpret_cast<const float4*>(grid) + hue_bin * view.plane + cell;
-#pragma unroll
-        for (int k = 0; k < 8; ++k) {
-          d[k] = correlate(__ldg(base + (k & 1) + ((k >> 1) & 1) * view.dx + (k >> 2) * view.dxy), h);
-        }
-      }
-      const float tx = ux - fx;
-      const float ty = uy - fy;
-      const float tz = uz - fz;
-      // 3.18: trilinear weights, x then y then z.
-      const float y0 = lerp(lerp(d[0], d[1], tx), lerp(d[2], d[3], tx), ty);
-      const float y1 = lerp(lerp(d[4], d[5], tx), lerp(d[6], d[7], tx), ty);
-      sum += inside ? lerp(y0, y1, tz) : 0.f;
-    }
+__device__ __forceinline__ PlaneElement load(const PlaneElement* p) {
+  if constexpr (kShared) {
+    return *p;
+  } else {
+    return __ldg(p);
   }
-  return sum;
+}
+
+// 3.18 with 3.19 for one point (a, b as in Frame::points) and the particle whose rows are r0, r1,
+// r2; 0 for points outside the grid (and NaN coordinates).
+template <bool kShared>
+__device__ __forceinline__ float point_score(const PlaneElement* planes, const GridLayout& layout, const float4& r0,
+                                             const float4& r1, const float4& r2, const float4& a, const float4& b) {
+  const float ux = fmaf(r0.x, a.x, fmaf(r0.y, a.y, fmaf(r0.z, a.z, r0.w)));
+  const float uy = fmaf(r1.x, a.x, fmaf(r1.y, a.y, fmaf(r1.z, a.z, r1.w)));
+  const float uz = fmaf(r2.x, a.x, fmaf(r2.y, a.y, fmaf(r2.z, a.z, r2.w)));
+  const float fx = floorf(ux);
+  const float fy = floorf(uy);
+  const float fz = floorf(uz);
+  // False for NaN too.
+  const bool inside = fx >= 0.f && fx <= layout.max_x && fy >= 0.f && fy <= layout.max_y && fz >= 0.f &&
+                      fz <= layout.max_z;
+  const int cell = inside ? __float2int_rz(fz) * layout.stride_z + __float2int_rz(fy) * layout.stride_y +
+                                __float2int_rz(fx)
+                          : 0;
+  // The point's three non-zero bins: hue_bin, the next hue bin and one achromatic bin.
+  const int bin_lo = __float_as_int(a.w);
+  const int bin_hi = bin_lo == 5 ? 0 : bin_lo + 1;
+  const PlaneElement* lo = planes + bin_lo * layout.plane + cell;
+  const PlaneElement* hi = planes + bin_hi * layout.plane + cell;
+  const PlaneElement* gray = planes + __float_as_int(b.w) * layout.plane + cell;
+  const float tx = ux - fx;
+  // 3.19 at the corners x and x + 1 of one (y, z) edge of the cell, interpolated along x.
+  const auto edge = [&](int offset) {
+    const float2 l = load<kShared>(lo + offset);
+    const float2 h = load<kShared>(hi + offset);
+    const float2 g = load<kShared>(gray + offset);
+    const float d0 = fmaf(b.x, l.x, fmaf(b.y, h.x, b.z * g.x));
+    const float d1 = fmaf(b.x, l.y, fmaf(b.y, h.y, b.z * g.y));
+    return lerp(d0, d1, tx);
+  };
+  const float e00 = edge(0);
+  const float e10 = edge(layout.stride_y);
+  const float e01 = edge(layout.stride_z);
+  const float e11 = edge(layout.stride_y + layout.stride_z);
+  const float ty = uy - fy;
+  const float score = lerp(lerp(e00, e10, ty), lerp(e01, e11, ty), uz - fz);
+  return inside ? score : 0.f;
 }
 
 template <bool kShared>
-__global__ void __launch_bounds__(kThreadsPerBlock<kShared>)
-    score_kernel(GridView view, Work work) {
-  constexpr int kThreads = kThreadsPerBlock<kShared>;
-  constexpr int kWarps = kWarpsPerBlock<kShared>;
-  // Dynamic shared memory: 64 float4 of point stage per warp, then (kShared) the grid.
+__global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout layout, Frame frame) {
   extern __shared__ float4 shared_memory[];
-  float4* stage = shared_memory + (threadIdx.x / kWarpSize) * 2 * kWarpSize;
-  float4* shared_grid = shared_memory + kWarps * 2 * kWarpSize;
-  const float* grid = view.data;
+  const int thread = static_cast<int>(threadIdx.x);
+  const int lane = thread % kWarpSize;
+  const int warp = thread / kWarpSize;
+  const int member = thread % kTile;  // this thread's particle in the tile
+  const int slot = thread / kTile;    // this thread's point in each pass over kPointsPerPass points
+  const int tiles = (frame.num_particles + kTile - 1) / kTile;
+  const int items = tiles * frame.splits;
+  const int padded_particles = tiles * kTile;
+  // Points are prefetched without bounds checks: the device frame is padded (kFramePadBytes)
+  // and what is read past a split's end is never used.
+  const float4* points = frame.points;
+
+  // An item's particle rows and this thread's first point, loaded ahead of their use (the
+  // first item's before the grid is staged, the next item's during the reduction).
+  float4 r0, r1, r2, a, b;
+  const auto prefetch = [&](int item) {
+    const int tile = item / frame.splits;
+    const int p = min(tile * kTile + member, frame.num_particles - 1);  // surplus lanes repeat the last
+    r0 = __ldg(frame.particles + 3 * p);
+    r1 = __ldg(frame.particles + 3 * p + 1);
+    r2 = __ldg(frame.particles + 3 * p + 2);
+    // Clamped: an empty split may start past the end.
+    const int first = min((item - tile * frame.splits) * frame.split_points + slot, frame.num_points - 1);
+    a = __ldg(points + 2 * first);
+    b = __ldg(points + 2 * first + 1);
+  };
+  int item = static_cast<int>(blockIdx.x);
+  prefetch(item);
+
+  const PlaneElement* planes = layout.planes;
+  float* reduce = reinterpret_cast<float*>(shared_memory);
   if constexpr (kShared) {
-    // view.plane float4 to copy; four independent loads in flight per thread before their stores.
-    const float4* source = reinterpret_cast<const float4*>(view.data);
-    const int total = view.plane;
-    for (int base = static_cast<int>(threadIdx.x); base < total; base += 4 * kThreads) {
-      float4 v[4];
-#pragma unroll
-      for (int k = 0; k < 4; ++k) {
-        const int i = base + k * kThreads;
-        if (i < total) v[k] = __ldg(source + i);
-      }
-#pragma unroll
-      for (int k = 0; k < 4; ++k) {
-        const int i = base + k * kThreads;
-        if (i < total) shared_grid[i] = v[k];
-      }
-    }
+    auto* shared_planes = reinterpret_cast<PlaneElement*>(shared_memory);
+    for (int c = thread; c < layout.plane; c += kThreadsPerBlock) expand_corner(layout, c, shared_planes);
+    planes = shared_planes;
+    reduce = reinterpret_cast<float*>(shared_planes + kBins * layout.plane);
     __syncthreads();
-    grid = reinterpret_cast<const float*>(shared_grid);
   }
-  const int lane = static_cast<int>(threadIdx.x) % kWarpSize;
-  const int items = ((work.num_particles + kWarpSize - 1) / kWarpSize) * work.chunks;
-  const int stride = static_cast<int>(gridDim.x) * kWarps;
-  for (int item = static_cast<int>(blockIdx.x) * kWarps + static_cast<int>(threadIdx.x) / kWarpSize;
-       item < items; item += stride) {
-    const int group = item / work.chunks;
-    const int chunk = item - group * work.chunks;
-    const int particle = group * kWarpSize + lane;
-    const int p = min(particle, work.num_particles - 1);  // surplus lanes repeat the last particle
-    const float4 r0 = __ldg(work.particles + 3 * p);
-    const float4 r1 = __ldg(work.particles + 3 * p + 1);
-    const float4 r2 = __ldg(work.particles + 3 * p + 2);
-    const int first = chunk * work.chunk_points;
-    const int last = min(first + work.chunk_points, work.num_points);
-    const float sum = score_points<kShared>(grid, view, work.points, stage, first, last, r0, r1, r2);
-    if (work.chunks == 1) {
-      if (particle < work.num_particles) work.scores[particle] = sum;
-      continue;
+
+  for (; item < items; item += static_cast<int>(gridDim.x)) {
+    const int tile = item / frame.splits;
+    const int split = item - tile * frame.splits;
+    const int last = min((split + 1) * frame.split_points, frame.num_points);
+    float sum = 0.f;
+    for (int j = split * frame.split_points + slot; j < last; j += kPointsPerPass) {
+      const int next = j + kPointsPerPass;
+      const float4 next_a = __ldg(points + 2 * next);
+      const float4 next_b = __ldg(points + 2 * next + 1);
+      sum += point_score<kShared>(planes, layout, r0, r1, r2, a, b);
+      a = next_a;
+      b = next_b;
     }
-    if (particle < work.num_particles) work.partials[chunk * work.num_particles + particle] = sum;
-    __threadfence();  // each lane's partial sum is visible device-wide ...
-    __syncwarp();     // ... before lane 0 counts the chunk as done
-    unsigned done = 0;
-    if (lane == 0) done = atomicAdd(&work.group_done[group], 1u);
-    done = __shfl_sync(0xffffffffu, done, 0);
-    if (done != static_cast<unsigned>(work.chunks - 1)) continue;
-    // Last chunk of this group: every partial sum is in L2 (read past L1 with __ldcg).
-    __threadfence();
-    float total = 0.f;
-#pragma unroll 8
-    for (int k = 0; k < work.chunks; ++k) total += __ldcg(work.partials + k * work.num_particles + p);
-    if (particle < work.num_particles) work.scores[particle] = total;
-    if (lane == 0) work.group_done[group] = 0u;  // ready for the next call
+    const int next_item = item + static_cast<int>(gridDim.x);
+    if (next_item < items) prefetch(next_item);
+
+    // 3.20 in a fixed order: the two halves of each warp, the warps, then (several splits) the
+    // splits.
+    sum += __shfl_xor_sync(0xffffffffu, sum, kTile);
+    if (lane < kTile) reduce[warp * kTile + lane] = sum;
+    __syncthreads();
+    if (warp == 0) {
+      float total = 0.f;
+      for (int w = lane / kTile; w < kWarpsPerBlock; w += kWarpSize / kTile) total += reduce[w * kTile + member];
+      total += __shfl_xor_sync(0xffffffffu, total, kTile);
+      const int particle = tile * kTile + member;
+      if (frame.splits == 1) {
+        if (lane < kTile && particle < frame.num_particles) frame.scores[particle] = total;
+      } else {
+        if (lane < kTile) frame.partials[split * padded_particles + particle] = total;
+        __threadfence();  // each lane's split sum is visible device-wide ...
+        __syncwarp();     // ... before lane 0 counts the split as done
+        unsigned done = 0;
+        if (lane == 0) done = atomicAdd(frame.tile_done + tile, 1u);
+        done = __shfl_sync(0xffffffffu, done, 0);
+        if (done == static_cast<unsigned>(frame.splits - 1)) {
+          // The tile's last split: every split sum is in L2 (read past L1 with __ldcg).
+          __threadfence();
+          if (lane < kTile) {
+            float score = 0.f;
+            for (int k = 0; k < frame.splits; ++k) score += __ldcg(frame.partials + k * padded_particles + particle);
+            if (particle < frame.num_particles) frame.scores[particle] = score;
+          }
+          if (lane == 0) frame.tile_done[tile] = 0u;  // ready for the next call
+        }
+      }
+    }
+    if (next_item < items) __syncthreads();  // reduce is read before the next item writes it
   }
+}
+
+// Splits per tile for `tiles` tiles of `points` points over `blocks` resident blocks: the least
+// time for the busiest block, counted in points scored (rounds of items times points per split),
+// where each round with split sums also pays their combination (a fence, a counter and a reload
+// from L2 while the block waits: about as long as scoring kCombinePoints points on an H100).
+// At most kMaxSplits splits, and at least kMinSplitPoints points per split.
+int choose_splits(int tiles, int points, int blocks) {
+  constexpr long kCombinePoints = 200;
+  const int most = std::clamp(points / kMinSplitPoints, 1, kMaxSplits);
+  int best_splits = 1;
+  long best = std::numeric_limits<long>::max();
+  for (int splits = 1; splits <= most; ++splits) {
+    const long rounds = (static_cast<long>(tiles) * splits + blocks - 1) / blocks;
+    const long cost = rounds * ((points + splits - 1) / splits + (splits > 1 ? kCombinePoints : 0));
+    if (cost < best) {
+      best = cost;
+      best_splits = splits;
+    }
+  }
+  return best_splits;
 }
 
 }  // namespace
@@ -373,18 +394,19 @@ struct JcsdDevice::State {
   cudaEvent_t kernel_end = nullptr;
   cudaEvent_t end = nullptr;
 
-  DeviceBuffer raw_grid, layout, points, particles, partials, group_done, scores;
-  PinnedBuffer grid_host, points_host, particles_host, scores_host;
+  DeviceBuffer raw_grid, planes, frame, partials, tile_done, scores;
+  PinnedBuffer grid_host, frame_host, scores_host;
 
   std::array<int, 3> dims{0, 0, 0};
   int corners = 0;  // 0: no valid grid on the device
-  int stride_y = 0, stride_z = 0, plane = 0;  // the layout in use (GridView)
-  std::array<int, 3> strides_for{0, 0, 0};    // dims whose shared-layout strides are cached
-  std::pair<int, int> shared_strides{0, 0};
-  int max_shared_bytes = 0;   // dynamic shared memory a block may opt in to
-  bool grid_in_shared = false;  // the current grid's hue-pair grids fit in shared memory
-  int resident_warps = 0;       // warps of the chosen kernel that run at once on the device
-  bool counters_dirty = true;  // group_done needs zeroing (fresh buffer or an aborted kernel)
+  int stride_y = 0, stride_z = 0, plane = 0;  // the planes' layout (GridLayout)
+  std::array<int, 3> strides_for{0, 0, 0};    // dims whose strides are cached
+  std::pair<int, int> strides{0, 0};
+  int max_shared_bytes = 0;     // dynamic shared memory a block may opt in to
+  bool grid_in_shared = false;  // the current grid's planes fit in shared memory
+  int resident_blocks = 0;      // blocks of the chosen kernel that run at once on the device
+  bool counters_zero = false;   // tile_done holds zeros (it is reset by every completed kernel)
+  std::size_t staged_points = 0, staged_particles = 0;  // the frame staged by stage_frame
   DeviceTiming timing;
 
   void activate() const { check(cudaSetDevice(options.device), "cudaSetDevice"); }
@@ -402,6 +424,10 @@ struct JcsdDevice::State {
 JcsdDevice::JcsdDevice(const DeviceOptions& options) : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.options = options;
+  if (options.splits < 0 || options.splits > kMaxSplits) {
+    throw std::invalid_argument("JcsdDevice: splits must be in [0, " + std::to_string(kMaxSplits) + "], got " +
+                                std::to_string(options.splits));
+  }
   int count = 0;
   check(cudaGetDeviceCount(&count), "cudaGetDeviceCount");
   if (options.device < 0 || options.device >= count) {
@@ -432,94 +458,81 @@ float* JcsdDevice::grid_staging(std::size_t corners) {
   State& s = *state_;
   s.activate();
   check(cudaEventSynchronize(s.grid_uploaded), "grid upload");
-  s.grid_host.reserve(corners * 8 * sizeof(float), s.stream, "cudaHostAlloc (grid)");
+  s.grid_host.reserve(corners * kBins * sizeof(float), s.stream, "cudaHostAlloc (grid)");
   return s.grid_host.as<float>();
 }
 
 void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   State& s = *state_;
   const std::size_t corners = static_cast<std::size_t>(dims[0]) * dims[1] * dims[2];
-  if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2 || corners * 6 > std::size_t{1} << 31) {
-    throw std::runtime_error("JcsdDevice::upload_grid: dims must be >= 2 and the grid below 2^31 / 6 corners");
+  if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2 || corners * kBins > std::size_t{1} << 31) {
+    throw std::runtime_error("JcsdDevice::upload_grid: dims must be >= 2 and the grid below 2^31 / 8 corners");
   }
   s.activate();
   s.corners = 0;  // no valid grid on the device until this upload is queued
-  s.raw_grid.reserve(corners * 8 * sizeof(float), s.stream, "cudaMalloc (grid)");
-  check(cudaMemcpyAsync(s.raw_grid.as<float>(), s.grid_host.as<float>(), corners * 8 * sizeof(float),
+  s.raw_grid.reserve(corners * kBins * sizeof(float), s.stream, "cudaMalloc (grid)");
+  check(cudaMemcpyAsync(s.raw_grid.as<float>(), s.grid_host.as<float>(), corners * kBins * sizeof(float),
                         cudaMemcpyHostToDevice, s.stream),
         "cudaMemcpyAsync (grid)");
-  const int threads = 256;
 
-  // Shared-memory layout when it fits and a block of the shared kernel can be resident.
   if (dims != s.strides_for) {  // the search costs microseconds; models keep their size for long
-    s.shared_strides = shared_strides(dims);
+    s.strides = padded_strides(dims);
     s.strides_for = dims;
   }
-  const auto [shared_y, shared_z] = s.shared_strides;
-  const std::size_t shared_floats = static_cast<std::size_t>(shared_z) * dims[2] * kSharedCornerFloats;
-  const std::size_t shared_float4s = (shared_floats + 3) / 4;
-  const std::size_t shared_bytes = shared_float4s * sizeof(float4);
+  const auto [stride_y, stride_z] = s.strides;
+  const std::size_t plane = static_cast<std::size_t>(stride_z) * dims[2];
+  if (plane * kBins >= std::size_t{1} << 31) throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
+  s.stride_y = stride_y;
+  s.stride_z = stride_z;
+  s.plane = static_cast<int>(plane);
+  const std::size_t shared_bytes = plane * kBins * sizeof(PlaneElement) + kReduceBytes;
   int blocks_per_sm = 0;
-  if (shared_bytes + kStageBytes<true> <= static_cast<std::size_t>(s.max_shared_bytes)) {
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<true>,
-                                                        kThreadsPerBlock<true>, shared_bytes + kStageBytes<true>),
+  if (shared_bytes <= static_cast<std::size_t>(s.max_shared_bytes)) {
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<true>, kThreadsPerBlock,
+                                                        shared_bytes),
           "cudaOccupancyMaxActiveBlocksPerMultiprocessor");
   }
   s.grid_in_shared = blocks_per_sm > 0;
-  if (s.grid_in_shared) {
-    s.layout.reserve(shared_bytes, s.stream, "cudaMalloc (grid layout)");
-    const int total = static_cast<int>(shared_float4s * 4);
-    expand_shared_layout_kernel<<<(total + threads - 1) / threads, threads, 0, s.stream>>>(
-        s.raw_grid.as<float>(), s.layout.as<float>(), dims[0], dims[1], shared_y, shared_z, total);
-    check(cudaGetLastError(), "expand_shared_layout_kernel launch");
-    s.stride_y = shared_y;
-    s.stride_z = shared_z;
-    s.plane = static_cast<int>(shared_float4s);
-  } else {
-    // Hue-pair layout: y stride = 2 and z stride = 4 (mod 8).
-    const int stride_y = dims[0] + ((2 - dims[0]) % 8 + 8) % 8;
-    const int stride_z = stride_y * dims[1] + ((4 - stride_y * dims[1]) % 8 + 8) % 8;
-    const std::size_t plane = static_cast<std::size_t>(stride_z) * dims[2];
-    if (plane * 6 >= std::size_t{1} << 31) throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
-    s.layout.reserve(plane * 6 * sizeof(float4), s.stream, "cudaMalloc (grid layout)");
-    const int padded = static_cast<int>(plane);
-    expand_pairs_kernel<<<(padded + threads - 1) / threads, threads, 0, s.stream>>>(
-        s.raw_grid.as<float4>(), s.layout.as<float4>(), dims[0], dims[1], stride_y, stride_z, padded);
-    check(cudaGetLastError(), "expand_pairs_kernel launch");
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<false>,
-                                                        kThreadsPerBlock<false>, kStageBytes<false>),
+  if (!s.grid_in_shared) {
+    s.planes.reserve(plane * kBins * sizeof(PlaneElement), s.stream, "cudaMalloc (grid planes)");
+    const GridLayout layout{s.raw_grid.as<float4>(), nullptr, dims[0], dims[1], stride_y, stride_z, s.plane,
+                            0.f, 0.f, 0.f};
+    const int threads = 256;
+    expand_planes_kernel<<<(s.plane + threads - 1) / threads, threads, 0, s.stream>>>(layout,
+                                                                                      s.planes.as<PlaneElement>());
+    check(cudaGetLastError(), "expand_planes_kernel launch");
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<false>, kThreadsPerBlock,
+                                                        kReduceBytes),
           "cudaOccupancyMaxActiveBlocksPerMultiprocessor");
-    s.stride_y = stride_y;
-    s.stride_z = stride_z;
-    s.plane = padded;
   }
   check(cudaEventRecord(s.grid_uploaded, s.stream), "cudaEventRecord");
-  s.resident_warps = std::max(1, blocks_per_sm) * s.sm_count * (s.grid_in_shared ? kWarpsPerBlock<true> : kWarpsPerBlock<false>);
+  s.resident_blocks = std::max(1, blocks_per_sm) * s.sm_count;
   s.dims = dims;
   s.corners = static_cast<int>(corners);
 }
 
-PointRecord* JcsdDevice::point_staging(std::size_t points) {
+FrameStaging JcsdDevice::stage_frame(std::size_t points, std::size_t particles) {
   State& s = *state_;
   if (points > kMaxItems) throw std::runtime_error("JcsdDevice: more than 2^24 points");
-  s.activate();
-  s.points_host.reserve(std::max<std::size_t>(points, 1) * sizeof(PointRecord), s.stream, "cudaHostAlloc (points)");
-  return s.points_host.as<PointRecord>();
-}
-
-ParticleRecord* JcsdDevice::particle_staging(std::size_t particles) {
-  State& s = *state_;
   if (particles > kMaxItems) throw std::runtime_error("JcsdDevice: more than 2^24 particles");
   s.activate();
-  s.particles_host.reserve(std::max<std::size_t>(particles, 1) * sizeof(ParticleRecord), s.stream,
-                           "cudaHostAlloc (particles)");
-  return s.particles_host.as<ParticleRecord>();
+  // One buffer, points then particles (both 16-byte records), so one copy uploads the frame.
+  s.frame_host.reserve(std::max<std::size_t>(points * sizeof(PointRecord) + particles * sizeof(ParticleRecord), 1),
+                       s.stream, "cudaHostAlloc (frame)");
+  s.staged_points = points;
+  s.staged_particles = particles;
+  auto* base = s.frame_host.as<unsigned char>();
+  return {reinterpret_cast<PointRecord*>(base),
+          reinterpret_cast<ParticleRecord*>(base + points * sizeof(PointRecord))};
 }
 
 void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scores) {
   State& s = *state_;
   if (particles == 0) return;
   if (s.corners == 0) throw std::runtime_error("CUDA JCSD: no grid on the device (none uploaded, or the upload failed)");
+  if (points != s.staged_points || particles != s.staged_particles) {
+    throw std::runtime_error("JcsdDevice::evaluate: counts differ from the last stage_frame's");
+  }
   if (points == 0) {
     std::fill(scores, scores + particles, 0.f);
     return;
@@ -527,63 +540,53 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   s.activate();
   const int num_points = static_cast<int>(points);
   const int num_particles = static_cast<int>(particles);
+  const int tiles = (num_particles + kTile - 1) / kTile;
+  const int splits = std::min(s.options.splits > 0 ? s.options.splits : choose_splits(tiles, num_points, s.resident_blocks),
+                              num_points);
+  const int split_points = (num_points + splits - 1) / splits;
+  const int blocks = std::min(tiles * splits, s.resident_blocks);
+  const std::size_t shared_bytes =
+      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kBins * sizeof(PlaneElement) + kReduceBytes : kReduceBytes;
 
-  // Launch shape: work items of (32 particles, a chunk of points), about items_per_warp per
-  // resident warp, chunks of at least kMinChunkPoints points and at most kMaxChunks per group
-  // (the last warp of a group adds the partial sums, so that sum stays short).
-  const int groups = (num_particles + kWarpSize - 1) / kWarpSize;
-  const int target_items = s.options.items_per_warp * s.resident_warps;
-  int chunks = std::max(1, (target_items + groups - 1) / groups);
-  chunks = std::min({chunks, kMaxChunks, std::max(1, num_points / kMinChunkPoints)});
-  const int chunk_points = (num_points + chunks - 1) / chunks;
-  chunks = (num_points + chunk_points - 1) / chunk_points;
-  const int items = groups * chunks;
-  const int warps_per_block = s.grid_in_shared ? kWarpsPerBlock<true> : kWarpsPerBlock<false>;
-  const int blocks = (std::min(s.resident_warps, items) + warps_per_block - 1) / warps_per_block;
-  const std::size_t shared_bytes = s.grid_in_shared ? kStageBytes<true> + static_cast<std::size_t>(s.plane) * sizeof(float4)
-                                                    : kStageBytes<false>;
-
-  s.points.reserve(points * sizeof(PointRecord), s.stream, "cudaMalloc (points)");
-  s.particles.reserve(particles * sizeof(ParticleRecord), s.stream, "cudaMalloc (particles)");
+  const std::size_t frame_bytes = points * sizeof(PointRecord) + particles * sizeof(ParticleRecord);
+  s.frame.reserve(frame_bytes + kFramePadBytes, s.stream, "cudaMalloc (frame)");
   s.scores.reserve(particles * sizeof(float), s.stream, "cudaMalloc (scores)");
   s.scores_host.reserve(particles * sizeof(float), s.stream, "cudaHostAlloc (scores)");
-  if (chunks > 1) {
-    s.partials.reserve(static_cast<std::size_t>(chunks) * particles * sizeof(float), s.stream,
-                       "cudaMalloc (partial sums)");
-    if (s.group_done.reserve(static_cast<std::size_t>(groups) * sizeof(unsigned), s.stream,
-                             "cudaMalloc (counters)")) {
-      s.counters_dirty = true;
+  if (splits > 1) {
+    const std::size_t padded = static_cast<std::size_t>(tiles) * kTile;
+    s.partials.reserve(static_cast<std::size_t>(splits) * padded * sizeof(float), s.stream, "cudaMalloc (split sums)");
+    if (s.tile_done.reserve(static_cast<std::size_t>(tiles) * sizeof(unsigned), s.stream, "cudaMalloc (counters)")) {
+      s.counters_zero = false;
     }
-    if (s.counters_dirty) {
-      check(cudaMemsetAsync(s.group_done.as<unsigned>(), 0, static_cast<std::size_t>(groups) * sizeof(unsigned),
-                            s.stream),
+    if (!s.counters_zero) {
+      check(cudaMemsetAsync(s.tile_done.as<unsigned>(), 0, static_cast<std::size_t>(tiles) * sizeof(unsigned), s.stream),
             "cudaMemsetAsync (counters)");
     }
   }
 
-  s.counters_dirty = true;  // until this call has completed
+  s.counters_zero = false;  // until this call's kernel has completed (it leaves them zero)
   check(cudaEventRecord(s.begin, s.stream), "cudaEventRecord");
-  check(cudaMemcpyAsync(s.points.as<void>(), s.points_host.as<void>(), points * sizeof(PointRecord),
-                        cudaMemcpyHostToDevice, s.stream),
-        "cudaMemcpyAsync (points)");
-  check(cudaMemcpyAsync(s.particles.as<void>(), s.particles_host.as<void>(),
-                        particles * sizeof(ParticleRecord), cudaMemcpyHostToDevice, s.stream),
-        "cudaMemcpyAsync (particles)");
-  const GridView view{s.layout.as<float>(),
-                      s.plane,
-                      s.stride_y,
-                      s.stride_z,
-                      static_cast<float>(s.dims[0] - 2),
-                      static_cast<float>(s.dims[1] - 2),
-                      static_cast<float>(s.dims[2] - 2)};
-  const Work work{s.points.as<float4>(),      num_points,           chunk_points,
-                  chunks,                     s.particles.as<float4>(), num_particles,
-                  s.partials.as<float>(),     s.group_done.as<unsigned>(), s.scores.as<float>()};
+  check(cudaMemcpyAsync(s.frame.as<void>(), s.frame_host.as<void>(), frame_bytes, cudaMemcpyHostToDevice, s.stream),
+        "cudaMemcpyAsync (frame)");
+  const float4* device_points = s.frame.as<float4>();
+  const GridLayout layout{s.raw_grid.as<float4>(),
+                          s.planes.as<PlaneElement>(),
+                          s.dims[0],
+                          s.dims[1],
+                          s.stride_y,
+                          s.stride_z,
+                          s.plane,
+                          static_cast<float>(s.dims[0] - 2),
+                          static_cast<float>(s.dims[1] - 2),
+                          static_cast<float>(s.dims[2] - 2)};
+  const Frame frame{device_points,          num_points, device_points + 2 * points, num_particles,
+                    splits,                 split_points, s.partials.as<float>(), s.tile_done.as<unsigned>(),
+                    s.scores.as<float>()};
   check(cudaEventRecord(s.kernel_begin, s.stream), "cudaEventRecord");
   if (s.grid_in_shared) {
-    score_kernel<true><<<blocks, kThreadsPerBlock<true>, shared_bytes, s.stream>>>(view, work);
+    score_kernel<true><<<blocks, kThreadsPerBlock, shared_bytes, s.stream>>>(layout, frame);
   } else {
-    score_kernel<false><<<blocks, kThreadsPerBlock<false>, shared_bytes, s.stream>>>(view, work);
+    score_kernel<false><<<blocks, kThreadsPerBlock, shared_bytes, s.stream>>>(layout, frame);
   }
   check(cudaGetLastError(), "score_kernel launch");
   check(cudaEventRecord(s.kernel_end, s.stream), "cudaEventRecord");
@@ -592,10 +595,11 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
         "cudaMemcpyAsync (scores)");
   check(cudaEventRecord(s.end, s.stream), "cudaEventRecord");
   check(cudaStreamSynchronize(s.stream), "score_kernel");
-  s.counters_dirty = false;
+  s.counters_zero = true;
   std::memcpy(scores, s.scores_host.as<float>(), particles * sizeof(float));
   check(cudaEventElapsedTime(&s.timing.kernel_ms, s.kernel_begin, s.kernel_end), "cudaEventElapsedTime");
   check(cudaEventElapsedTime(&s.timing.transfer_ms, s.begin, s.end), "cudaEventElapsedTime");
+  s.timing.splits = splits;
 }
 
 DeviceTiming JcsdDevice::last_timing() const { return state_->timing; }

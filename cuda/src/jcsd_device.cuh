@@ -18,10 +18,11 @@ std::string device_description(int device);
 
 // One hypothesis point as the kernel reads it: two 16-byte words.
 struct PointRecord {
-  float x, y, z;       // camera frame, metres
-  std::int32_t hue_bin;  // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
-  float w_lo, w_hi;    // chromatic weights
-  float w_dark, w_light;  // achromatic weight in bin 6 or bin 7 (the other is 0)
+  float x, y, z;             // camera frame, metres
+  std::int32_t hue_bin;      // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
+  float w_lo, w_hi;          // chromatic weights
+  float w_gray;              // achromatic weight
+  std::int32_t gray_bin;     // its bin: 6 (dark) or 7 (light)
 };
 static_assert(sizeof(PointRecord) == 32);
 
@@ -33,13 +34,20 @@ struct ParticleRecord {
 static_assert(sizeof(ParticleRecord) == 48);
 
 struct DeviceTiming {
-  float kernel_ms = 0.f;    // the scoring kernel alone (CUDA events)
-  float transfer_ms = 0.f;  // upload of points and particles, kernel, download of scores (CUDA events)
+  float kernel_ms = 0.f;       // the scoring kernel alone (CUDA events)
+  float transfer_ms = 0.f;     // upload of points and particles, kernel, download of scores (CUDA events)
+  int splits = 0;              // the launch shape used: work items per tile of 16 particles
 };
 
 struct DeviceOptions {
   int device = 0;
-  int items_per_warp = 1;  // scoring-kernel work items aimed at per resident warp
+  int splits = 0;  // work items per tile of 16 particles (each scores a split of the points), [1, 64]; 0: chosen per call
+};
+
+// Where the host writes one frame: `points` PointRecords and `particles` ParticleRecords.
+struct FrameStaging {
+  PointRecord* points;
+  ParticleRecord* particles;
 };
 
 class JcsdDevice {
@@ -56,10 +64,11 @@ class JcsdDevice {
   // kernel's layout. dims are the corners along x, y, z (each >= 2).
   void upload_grid(const std::array<int, 3>& dims);
 
-  PointRecord* point_staging(std::size_t points);
-  ParticleRecord* particle_staging(std::size_t particles);
-  // Uploads the staged points and particles, scores them against the uploaded grid and writes
-  // the particle scores to scores (host memory, `particles` floats). Blocks until done.
+  // Pinned host buffers for one frame, valid until the next stage_frame.
+  FrameStaging stage_frame(std::size_t points, std::size_t particles);
+  // Uploads the staged frame, scores it against the uploaded grid and writes the particle scores
+  // to scores (host memory, `particles` floats). Blocks until done. points and particles are
+  // the counts given to the last stage_frame.
   void evaluate(std::size_t points, std::size_t particles, float* scores);
 
   DeviceTiming last_timing() const;

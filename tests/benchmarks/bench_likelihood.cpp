@@ -6,8 +6,9 @@
 // repeated calls that rotate over 4 particle sets. The largest CPU/GPU score difference of each row
 // is printed as a parity check. Without CUDA (or without a device) the GPU columns read n/a.
 //
-// Usage: mfot_bench_likelihood [--csv FILE] [--quick]
+// Usage: mfot_bench_likelihood [--csv FILE] [--quick] [--only PARTICLES]
 //   --quick  fewer repetitions and no 5000-particle CPU row (for CI smoke runs)
+//   --only   just the object row of that particle count (e.g. to profile one launch shape)
 
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/jcsd_likelihood.hpp"
@@ -22,6 +23,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <fstream>
@@ -202,13 +204,16 @@ std::string fmt(double v, int decimals = 3, char style = 'f') {
 int main(int argc, char** argv) {
   std::string csv_path;
   bool quick = false;
+  long only = 0;  // 0: every row
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--csv") == 0 && i + 1 < argc) {
       csv_path = argv[++i];
     } else if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
+    } else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc && (only = std::atol(argv[i + 1])) > 0) {
+      ++i;
     } else {
-      std::fprintf(stderr, "usage: %s [--csv FILE] [--quick]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--csv FILE] [--quick] [--only PARTICLES]\n", argv[0]);
       return 2;
     }
   }
@@ -247,6 +252,7 @@ int main(int argc, char** argv) {
   std::vector<Row> rows;
   mfot::JcsdLikelihood cpu;
   for (std::size_t k = 0; k < counts.size(); ++k) {
+    if (only != 0 && counts[k] != static_cast<std::size_t>(only)) continue;
     const Scene scene = make_scene(box, kPoints, counts[k], kSigmaT, kSigmaR, 100 + k);
     Row row{"object", counts[k], scene.data.points.size(), NAN, {NAN, NAN, NAN}, NAN, thesis_cpu[k], thesis_gpu[k]};
     std::vector<float> cpu_scores(counts[k]);
@@ -267,7 +273,7 @@ int main(int argc, char** argv) {
 
   // The same 2000-particle frame with a wide spread (3 cm / 0.3 rad): less cache sharing
   // between the particles of a warp.
-  {
+  if (only == 0) {
     const Scene scene = make_scene(box, kPoints, 2000, 0.03f, 0.3f, 300);
     Row row{"object-wide", 2000, scene.data.points.size(), NAN, {NAN, NAN, NAN}, NAN, NAN, NAN};
     std::vector<float> cpu_scores(2000);
@@ -288,7 +294,7 @@ int main(int argc, char** argv) {
 
   // A frame of 3 objects, 1000 particles and 2000 hypothesis points each, evaluated one object
   // after the other (one likelihood instance per object, as the tracker holds them).
-  {
+  if (only == 0) {
     const std::array<Eigen::Vector3f, 3> sizes{Eigen::Vector3f(0.20f, 0.12f, 0.08f), Eigen::Vector3f(0.16f, 0.16f, 0.10f),
                                                Eigen::Vector3f(0.25f, 0.10f, 0.07f)};
     std::array<Scene, 3> scenes;
@@ -343,19 +349,20 @@ int main(int argc, char** argv) {
   }
 
 #if MFOT_HAVE_CUDA
-  // Launch shape: the 2000-particle frame at several work items per resident warp
-  // (CudaJcsdLikelihoodOptions::items_per_warp; the default is 1).
-  if (gpu) {
+  // Launch shape: the 2000-particle frame at several point splits (CudaJcsdLikelihoodOptions::
+  // point_splits; 0, the default, chooses per call).
+  if (gpu && only == 0) {
     const Scene scene = make_scene(box, kPoints, 2000, kSigmaT, kSigmaR, 107);
     cpu.set_model(scene.model);
-    std::printf("\nitems_per_warp sweep, 2000 particles x %zu points: kernel ms", scene.data.points.size());
-    for (const int items_per_warp : {1, 2, 4}) {
+    std::printf("\npoint_splits sweep, 2000 particles x %zu points: kernel ms", scene.data.points.size());
+    for (const int splits : {0, 1, 2, 3, 4}) {
       mfot::CudaJcsdLikelihoodOptions options;
-      options.items_per_warp = items_per_warp;
+      options.point_splits = splits;
       mfot::CudaJcsdLikelihood tuned(options);
       tuned.set_grid(cpu.grid());
       std::vector<float> scores(2000);
-      std::printf("  %d: %.4f", items_per_warp, gpu_ms(tuned, scene, gpu_reps, scores).kernel_ms);
+      const double kernel_ms = gpu_ms(tuned, scene, gpu_reps, scores).kernel_ms;
+      std::printf("  %d%s: %.4f", tuned.last_timing().point_splits, splits == 0 ? " (auto)" : "", kernel_ms);
     }
     std::printf("\n");
   }

@@ -55,10 +55,10 @@ class CudaJcsd : public ::testing::Test {
 
 TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
   CudaJcsdLikelihoodOptions options;
-  options.items_per_warp = 0;
-  EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument);
-  options.items_per_warp = 17;
-  EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument);
+  for (const int splits : {-1, 65}) {
+    options.point_splits = splits;
+    EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument) << splits;
+  }
   options = {};
   options.device = -1;
   EXPECT_THROW(CudaJcsdLikelihood{options}, std::invalid_argument);
@@ -70,7 +70,7 @@ TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
 struct ParityCase {
   std::size_t model_points, data_points, particles;
   float sigma_t, sigma_r;
-  int items_per_warp;
+  int point_splits;  // 0: chosen per call
   float extent = 0.12f;  // model size in metres: 0.5 m puts the grid past shared memory
 };
 
@@ -81,7 +81,7 @@ TEST_P(CudaJcsdParity, MatchesCpuJcsd) {
   const RandomScene scene = random_scene(c.model_points, c.data_points, c.particles, c.sigma_t, c.sigma_r,
                                          0x5eed + c.particles * 7 + c.data_points, c.extent);
   CudaJcsdLikelihoodOptions options;
-  options.items_per_warp = c.items_per_warp;
+  options.point_splits = c.point_splits;
   CudaJcsdLikelihood gpu(options);
   gpu.set_model(scene.model);
   std::vector<float> scores(scene.particles.size(), std::numeric_limits<float>::quiet_NaN());
@@ -96,14 +96,15 @@ TEST_P(CudaJcsdParity, MatchesCpuJcsd) {
 
 INSTANTIATE_TEST_SUITE_P(
     Shapes, CudaJcsdParity,
-    ::testing::Values(ParityCase{500, 1, 3, 0.002f, 0.02f, 4},        // one point, three particles
-                      ParityCase{900, 100, 31, 0.01f, 0.1f, 4},       // part of one warp
-                      ParityCase{900, 900, 33, 0.01f, 0.1f, 4},       // two groups, one lane in the second
-                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 1},     // the Table 4.1 size
-                      ParityCase{900, 900, 2000, 0.05f, 0.6f, 1},     // wide spread: many points off the grid
-                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 16}, // many point chunks per group
-                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 2},      // more particles than points
-                      ParityCase{3000, 900, 2000, 0.02f, 0.1f, 1, 0.5f}));  // grid in global memory
+    ::testing::Values(ParityCase{500, 1, 3, 0.002f, 0.02f, 4},        // one point (splits capped at the points)
+                      ParityCase{900, 100, 31, 0.01f, 0.1f, 0},       // one full and one partial tile
+                      ParityCase{900, 900, 33, 0.01f, 0.1f, 64},      // three tiles, one particle in the last
+                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 0},     // the Table 4.1 size
+                      ParityCase{900, 900, 2000, 0.05f, 0.6f, 0},     // wide spread: many points off the grid
+                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 7},  // uneven splits of many points
+                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 64},     // many items per block, empty splits
+                      ParityCase{3000, 900, 2000, 0.02f, 0.1f, 0, 0.5f},   // grid in global memory
+                      ParityCase{3000, 900, 7000, 0.02f, 0.1f, 3, 0.5f}));  // global memory, several items per block
 
 TEST_F(CudaJcsd, MatchesTheReferencePointScores) {
   const RandomScene scene = random_scene(700, 400, 40, 0.01f, 0.1f, 11);
@@ -133,6 +134,26 @@ TEST_F(CudaJcsd, RepeatsBitIdenticalScoresAndWritesEveryOne) {
   EXPECT_EQ(0, std::memcmp(first.data(), second.data(), first.size() * sizeof(float)));
   EXPECT_GT(gpu.last_timing().kernel_ms, 0.f);
   EXPECT_GE(gpu.last_timing().transfer_ms, gpu.last_timing().kernel_ms);
+}
+
+TEST_F(CudaJcsd, EverySplitCountGivesTheSameScoresAndReportsItsShape) {
+  const RandomScene scene = random_scene(900, 900, 300, 0.01f, 0.1f, 19);
+  const std::vector<float> cpu = cpu_scores(scene);
+  for (const int splits : {0, 1, 2, 5, 16, 64}) {
+    CudaJcsdLikelihoodOptions options;
+    options.point_splits = splits;
+    CudaJcsdLikelihood gpu(options);
+    gpu.set_model(scene.model);
+    std::vector<float> scores(scene.particles.size(), std::numeric_limits<float>::quiet_NaN());
+    gpu.evaluate(scene.particles, scene.data, scores);
+    SCOPED_TRACE(splits);
+    expect_parity(cpu, scores);
+    const int used = gpu.last_timing().point_splits;
+    if (splits != 0) {
+      EXPECT_EQ(used, splits);
+    }
+    EXPECT_TRUE(used >= 1 && used <= 64) << used;
+  }
 }
 
 TEST_F(CudaJcsd, FollowsModelsThatGrowAndShrink) {

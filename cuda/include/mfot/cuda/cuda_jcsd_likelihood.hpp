@@ -18,7 +18,9 @@ class JcsdDevice;
 struct CudaJcsdLikelihoodOptions {
   JcsdGridOptions grid;   // grid built from the model by set_model
   int device = 0;         // CUDA device ordinal, >= 0
-  int items_per_warp = 1; // scoring-kernel work items (32 particles x a chunk of points) per resident warp, [1, 16]
+  // Work items per tile of 16 particles, each scoring one split of the points, [1, 64]; 0
+  // chooses per call from the particle and point counts and the device's multiprocessors.
+  int point_splits = 0;
 };
 
 // Throws std::invalid_argument naming the field when an option is out of range.
@@ -27,14 +29,16 @@ void validate(const CudaJcsdLikelihoodOptions& options);
 struct CudaJcsdTiming {
   float kernel_ms = 0.f;    // scoring kernel alone (CUDA events)
   float transfer_ms = 0.f;  // uploads, kernel and download of the scores (CUDA events)
+  int point_splits = 0;     // the scoring kernel's launch shape
 };
 
 // Scores particles against the model's JCSD grid on the GPU. Steps:
 //  1. set_model: build J on the CPU (Algorithm 3, build_jcsd_grid), copy it to pinned memory and
-//     upload it asynchronously; the device expands it into per-hue-pair float4 grids.
+//     upload it asynchronously; the kernel reads it as one padded plane per SMR bin
+//     (jcsd_device.cu), expanded into shared memory by each block when it fits.
 //  2. evaluate: pack the hypothesis points (position and sparse SMR, 32 B) and the particles
-//     (inverse pose in grid units, 48 B) into pinned memory, upload, run the scoring kernel,
-//     download the scores; all on this object's own stream, then wait for it.
+//     (inverse pose in grid units, 48 B) into one pinned buffer, upload it, run the scoring
+//     kernel, download the scores; all on this object's own stream, then wait for it.
 // Each instance owns its CUDA stream, device buffers and pinned staging buffers; buffers are
 // allocated on first use and grow only when a larger input arrives (no allocation per frame).
 // Instances, and processes, share a GPU without interfering. Every CUDA failure (no device, out
