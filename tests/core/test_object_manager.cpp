@@ -118,9 +118,10 @@ TEST(ObjectManager, AYoungObjectGrowsByPointsConnectedOnlyToIt) {
   for (const std::int32_t label : frame.labels) EXPECT_EQ(label, 1);
   EXPECT_GT(manager.objects().at(1).model.cloud.size(), tip_points);
 
-  // Growth off: the same arm makes a second object once it persists.
+  // Growth and propagation off: the same arm makes a second object once it persists.
   ObjectManagerOptions options;
   options.growth_frames = 0;
+  options.propagation_radius = 0.f;
   options.new_objects.confirm_frames = 1;
   ObjectManager strict(options);
   ColoredCloud tip;
@@ -131,11 +132,63 @@ TEST(ObjectManager, AYoungObjectGrowsByPointsConnectedOnlyToIt) {
   EXPECT_EQ(strict.objects().size(), 2u);
 }
 
+TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo) {
+  // Two objects in contact in one cluster (a hand holding a box), then the arm behind the hand
+  // comes into view: connected to the hand only, it is the hand's, never the box's.
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.1f, 0.f, 1.f}, {10, 10, 6});   // box
+  add_block(cloud, cluster, 1, {0.0f, 0.f, 1.f}, {6, 10, 6});     // hand, touching the box
+  ObjectManagerOptions options;
+  options.growth_frames = 10;
+  ObjectManager manager(options);
+  manager.process(cloud, cluster, {});
+  ASSERT_EQ(manager.objects().size(), 2u);
+  const std::size_t box_model = manager.objects().at(1).model.cloud.size();
+  const std::size_t hand_model = manager.objects().at(2).model.cloud.size();
+  const std::size_t before = cloud.size();
+  std::fill(cluster.begin(), cluster.end(), 0);
+  add_block(cloud, cluster, 0, {0.03f, 0.f, 1.f}, {30, 6, 4});   // the arm, beyond tau of the hand
+  const auto& frame = manager.process(cloud, cluster, unchanged(manager));
+  EXPECT_TRUE(frame.created.empty());
+  for (std::size_t i = before; i < cloud.size(); ++i) ASSERT_EQ(frame.labels[i], 2) << "arm point " << i;
+  EXPECT_EQ(manager.objects().at(1).model.cloud.size(), box_model);
+  EXPECT_GT(manager.objects().at(2).model.cloud.size(), hand_model);
+
+  // Past growth_frames the hand still labels the arm, but its model no longer grows.
+  for (int t = 0; t < 10; ++t) manager.process(cloud, cluster, unchanged(manager));
+  const std::size_t grown = manager.objects().at(2).model.cloud.size();
+  ColoredCloud longer = cloud;
+  std::vector<std::int32_t> longer_cluster = cluster;
+  add_block(longer, longer_cluster, 0, {0.18f, 0.f, 1.f}, {10, 6, 4});
+  const auto& later = manager.process(longer, longer_cluster, unchanged(manager));
+  for (std::size_t i = cloud.size(); i < longer.size(); ++i) ASSERT_EQ(later.labels[i], 2);
+  EXPECT_EQ(manager.objects().at(2).model.cloud.size(), grown);
+
+  // A gap wider than the radius stops the propagation.
+  ObjectManagerOptions no_reach = options;
+  no_reach.propagation_radius = 0.004f;
+  ObjectManager short_reach(no_reach);
+  ColoredCloud first(cloud);
+  first.positions.resize(before);
+  first.colors.resize(before);
+  std::vector<std::int32_t> first_cluster(before, 0);
+  short_reach.process(first, first_cluster, {});
+  ColoredCloud gapped = first;
+  std::vector<std::int32_t> gapped_cluster = first_cluster;
+  add_block(gapped, gapped_cluster, 0, {0.05f, 0.f, 1.f}, {10, 6, 4});
+  const auto& apart = short_reach.process(gapped, gapped_cluster, unchanged(short_reach));
+  for (std::size_t i = before; i < gapped.size(); ++i) ASSERT_EQ(apart.labels[i], 0);
+}
+
 TEST(ObjectManager, RejectsInvalidOptionsAndInputs) {
   ObjectManagerOptions options;
   options.max_model_points = 10;
   options.min_object_points = 20;
   EXPECT_THROW(ObjectManager{options}, std::invalid_argument);
+  ObjectManagerOptions far;
+  far.propagation_radius = 0.5f;
+  EXPECT_THROW(ObjectManager{far}, std::invalid_argument);
   ObjectManager manager;
   TwoBlocks scene;
   scene.cluster.pop_back();

@@ -3,6 +3,7 @@
 // and bad inputs.
 
 #include "mfot/evaluate/evaluation.hpp"
+#include "mfot/service/run_writer.hpp"
 #include "mfot/evaluate/report.hpp"
 #include "mfot/service/image_io.hpp"
 
@@ -275,6 +276,35 @@ TEST(Evaluate, DepthImagesLeaveUnmeasuredPixelsOut) {
   const auto unmasked = evaluate_run("unmasked", tmp.path() / "run", gt, {});
   EXPECT_EQ(unmasked.points, static_cast<std::size_t>(kFrames * (64 + 100 + 24)));
   EXPECT_NEAR(unmasked.accuracy, 1.0 - static_cast<double>(hole.area()) / 188.0, 1e-12);
+}
+
+TEST(Evaluate, ScenePointAccuracyLeavesPixelsPreprocessingRemovedOut) {
+  TempDir tmp;
+  const auto bodies = scene_bodies();
+  write_groundtruth(tmp.path() / "gt", bodies);
+  // Preprocessing dropped 12 pixels of object 1 (say, its bottom inside the table margin).
+  const Rect removed{2, 2, 5, 4};
+  RunSpec spec{{{1, 1}, {2, 2}, {3, 3}}};
+  spec.edit_labels = [&](int, service::Image16& labels) { fill(labels, removed, service::kNotScenePoint); };
+  write_run(tmp.path() / "run", bodies, spec);
+  const auto run = evaluate_run("run", tmp.path() / "run", load_groundtruth(tmp.path() / "gt"), {});
+  EXPECT_DOUBLE_EQ(run.accuracy, 1.0);
+  EXPECT_EQ(run.points, static_cast<std::size_t>(kFrames * (64 + 100 + 24 - removed.area())));
+  EXPECT_EQ(run.pixels, static_cast<std::size_t>(kFrames * (64 + 100 + 24)));
+  EXPECT_NEAR(run.pixel_accuracy, 1.0 - static_cast<double>(removed.area()) / 188.0, 1e-12);
+  EXPECT_EQ(run.mapping.count(static_cast<std::int32_t>(service::kNotScenePoint)), 0u);
+}
+
+TEST(Evaluate, DenseLabelsMarkMeasuredPixelsOutsideTheScene) {
+  // 4x1 image at 1 m: pixel 0 unmeasured, 1 in a labelled scene voxel, 2 in an unlabelled one,
+  // 3 measured but its voxel is not in the scene.
+  const float f = 100.f;
+  const std::vector<std::uint16_t> depth = {0, 1000, 1000, 1000};
+  const auto at_pixel = [&](int u) { return Eigen::Vector3f((static_cast<float>(u) - 0.f) / f, 0.f, 1.f); };
+  const std::vector<Eigen::Vector3f> scene = {at_pixel(1), at_pixel(2)};
+  const std::vector<std::int32_t> labels = {7, 0};
+  const auto image = service::dense_labels(4, 1, f, f, 0.f, 0.f, depth, 0.005f, scene, labels);
+  EXPECT_EQ(image.pixels, (std::vector<std::uint16_t>{0, 7, 0, service::kNotScenePoint}));
 }
 
 TEST(Evaluate, FittingAndTimingAreSummarised) {

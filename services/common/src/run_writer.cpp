@@ -76,9 +76,8 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
   std::unordered_map<std::uint64_t, std::int32_t> label_of_voxel;
   label_of_voxel.reserve(scene_points.size() * 2);
   for (std::size_t k = 0; k < scene_points.size(); ++k) {
-    if (labels[k] > 0) label_of_voxel.emplace(voxel_key(scene_points[k], inv), labels[k]);
+    label_of_voxel.emplace(voxel_key(scene_points[k], inv), std::max(labels[k], 0));
   }
-  if (label_of_voxel.empty()) return out;
   for (int v = 0; v < height; ++v) {
     const float ry = (static_cast<float>(v) - cy) / fy;
     for (int u = 0; u < width; ++u) {
@@ -87,7 +86,9 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
       const float z = static_cast<float>(depth_mm[i]) * 0.001f;
       const Eigen::Vector3f p((static_cast<float>(u) - cx) / fx * z, ry * z, z);
       const auto it = label_of_voxel.find(voxel_key(p, inv));
-      if (it != label_of_voxel.end()) out.pixels[i] = static_cast<std::uint16_t>(std::min(it->second, 65535));
+      out.pixels[i] = it == label_of_voxel.end()
+                          ? kNotScenePoint
+                          : static_cast<std::uint16_t>(std::min(it->second, kNotScenePoint - 1));
     }
   }
   return out;

@@ -1,6 +1,7 @@
 #include "mfot/evaluate/evaluation.hpp"
 
 #include "mfot/service/image_io.hpp"
+#include "mfot/service/run_writer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -229,10 +230,11 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
                         run_label_frames.end(), std::back_inserter(segmented));
   result.segmented_frames = segmented.size();
   result.groundtruth_frames_without_prediction = groundtruth.label_frames.size() - segmented.size();
-  SegmentationAccuracy accuracy;
+  SegmentationAccuracy accuracy;        // scene points (thesis 4.3)
+  SegmentationAccuracy pixel_accuracy;  // every measured pixel labelled in either image
   std::map<std::int32_t, Visibility> visible;  // ground-truth id -> frames it has points in
   std::vector<std::size_t> frame_points;
-  std::vector<std::int32_t> pred_points, gt_points;
+  std::vector<std::int32_t> pred_points, gt_points, pred_pixels, gt_pixels;
   for (const std::int64_t frame : segmented) {
     const fs::path pred_path = frame_image(run_labels, frame);
     const fs::path gt_path = frame_image(groundtruth.directory / "labels", frame);
@@ -249,10 +251,17 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
     }
     pred_points.clear();
     gt_points.clear();
+    pred_pixels.clear();
+    gt_pixels.clear();
     for (std::size_t i = 0; i < gt.pixels.size(); ++i) {
-      if (pred.pixels[i] == 0 && gt.pixels[i] == 0) continue;
+      const bool scene_point = pred.pixels[i] != service::kNotScenePoint;
+      const std::int32_t predicted = scene_point ? pred.pixels[i] : 0;
+      if (predicted == 0 && gt.pixels[i] == 0) continue;
       if (!depth_dir.empty() && depth.pixels[i] == 0) continue;
-      pred_points.push_back(pred.pixels[i]);
+      pred_pixels.push_back(predicted);
+      gt_pixels.push_back(gt.pixels[i]);
+      if (!scene_point) continue;
+      pred_points.push_back(predicted);
       gt_points.push_back(gt.pixels[i]);
       if (gt.pixels[i] != 0) {
         auto& v = visible[gt.pixels[i]];
@@ -261,10 +270,13 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
       }
     }
     accuracy.add_frame(pred_points, gt_points);
+    pixel_accuracy.add_frame(pred_pixels, gt_pixels);
     frame_points.push_back(pred_points.size());
   }
   result.points = accuracy.points();
   result.accuracy = accuracy.accuracy();
+  result.pixels = pixel_accuracy.points();
+  result.pixel_accuracy = pixel_accuracy.accuracy();
   result.mapping = accuracy.mapping();
   const auto frame_accuracy = accuracy.frame_accuracies();
 

@@ -36,9 +36,14 @@ class RunWriter {
   std::ofstream fitting_;
 };
 
-// Dense label image: every pixel whose back-projected 3D point falls in a labelled scene voxel
-// carries that voxel's label. Voxels are the cells floor(p / voxel_size) (the preprocess grid);
-// scene point k (a voxel mean, so inside its voxel) carries labels[k].
+// Label image value of a measured pixel that is not a scene point (table, cropped, filtered out),
+// so an evaluation can score the scene points (thesis 4.3) apart from all measured pixels.
+inline constexpr std::uint16_t kNotScenePoint = 65535;
+
+// Dense label image: every pixel whose back-projected 3D point falls in a scene voxel carries
+// that voxel's label (0 = no object); other measured pixels carry kNotScenePoint, unmeasured 0.
+// Voxels are the cells floor(p / voxel_size) (the preprocess grid); scene point k (a voxel mean,
+// so inside its voxel) carries labels[k].
 Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,
                      std::span<const std::uint16_t> depth_mm, float voxel_size,
                      std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels);

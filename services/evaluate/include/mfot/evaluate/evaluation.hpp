@@ -7,7 +7,8 @@
 //
 // Inputs (frame numbers are the frame sequence numbers; images are <dir>/<frame %06d>.png):
 //   run/poses.csv        frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale  (object -> camera, m)
-//   run/labels/          16-bit predicted label images, 0 = unassigned / not a scene point
+//   run/labels/          16-bit predicted label images, 0 = no object, 65535 = measured but not a
+//                        scene point (service::kNotScenePoint: table, cropped, filtered)
 //   run/fitting.csv      optional: frame,object_id,fitting_distance_m
 //   run/timing.csv       optional: any numeric columns, summarised per column
 //   gt/poses.csv         frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw
@@ -19,7 +20,10 @@
 //     prediction OR the ground truth, restricted to pixels with a depth measurement when depth
 //     images exist. Pixels where both say background are left out (they would inflate the
 //     accuracy with the table), and so are pixels the sensor did not measure (no tracker can
-//     label them). Without depth images every pixel labelled in either image counts.
+//     label them). Without depth images every pixel labelled in either image counts. The
+//     accuracy (thesis 4.3: "correctly associated points / all points" of the preprocessed
+//     scene) counts the scene points only; the pixel accuracy also counts the measured pixels
+//     preprocessing removed (as unlabelled), so what preprocessing loses stays visible.
 //  2. SegmentationAccuracy maps predicted ids one-to-one to ground-truth ids by their overlap
 //     over the whole sequence and gives the accuracy per frame and overall.
 //  3. Per ground-truth object: its mapped predicted id's poses (stale rows included: they are
@@ -119,8 +123,10 @@ struct RunResult {
   std::vector<FrameResult> frames;  // every frame with labels, poses or fitting, sorted
   std::size_t segmented_frames = 0;
   std::size_t groundtruth_frames_without_prediction = 0;  // gt label frames the run has no labels for
-  std::size_t points = 0;
-  double accuracy = 1.0;
+  std::size_t points = 0;          // scene points evaluated over all frames
+  double accuracy = 1.0;           // over scene points (thesis 4.3)
+  std::size_t pixels = 0;          // measured pixels evaluated over all frames
+  double pixel_accuracy = 1.0;     // over all measured pixels, its own one-to-one mapping
   std::map<std::int32_t, std::int32_t> mapping;  // predicted id -> gt id (SegmentationAccuracy::kUnmatched)
   std::string depth_mask;                        // directory of the depth images used, or "none"
   std::vector<ObjectResult> objects;             // one per ground-truth id with points (step 4)
