@@ -38,6 +38,9 @@ constexpr int kWarpSize = 32;
 constexpr int kThreadsPerBlock = 1024;
 constexpr int kWarpsPerBlock = kThreadsPerBlock / kWarpSize;
 constexpr int kBins = 8;
+// Planes: bins 0 to 5, bin 0 again (so that the plane after hue bin b always holds bin
+// (b + 1) % 6, 3.19), then bins 6 and 7.
+constexpr int kPlanes = 9;
 using PlaneElement = float2;  // one bin of a corner and of its x neighbour
 // Particles per tile: a half warp, whose lanes read one point (shared-memory loads of 8 bytes
 // are served per half warp).
@@ -150,13 +153,14 @@ struct GridLayout {
   const float4* raw;    // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
   const PlaneElement* planes;  // the planes in global memory (global-memory kernel only)
   int dim_x, dim_y;
-  int stride_y, stride_z;     // padded strides in corners
-  int plane;                  // floats per plane: stride_z * dims[2]
-  float max_x, max_y, max_z;  // largest valid cell index per axis (dims - 2)
+  int stride_y, stride_z;           // padded strides in corners
+  int plane;                        // elements per plane: stride_z * dims[2]
+  int bytes_y, bytes_z, bytes_yz;   // the strides y, z and y + z in bytes
+  unsigned max_x, max_y, max_z;     // largest valid cell index per axis (dims - 2)
 };
 
 struct Frame {
-  const float4* points;     // two float4 per point: (x, y, z, hue_bin bits), (w_lo, w_hi, w_gray, gray_bin bits)
+  const float4* points;     // two float4 per point: (x, y, z, hue plane bits), (w_lo, w_hi, w_gray, gray plane bits)
   int num_points;
   const float4* particles;  // three float4 per particle: rows [A | b]
   int num_particles;
@@ -166,6 +170,24 @@ struct Frame {
   unsigned* tile_done;      // splits done per tile, zero between calls (splits > 1)
   float* scores;
 };
+
+GridLayout make_layout(const float4* raw, const PlaneElement* planes, const std::array<int, 3>& dims, int stride_y,
+                       int stride_z, int plane) {
+  constexpr int element = sizeof(PlaneElement);
+  return {raw,
+          planes,
+          dims[0],
+          dims[1],
+          stride_y,
+          stride_z,
+          plane,
+          stride_y * element,
+          stride_z * element,
+          (stride_y + stride_z) * element,
+          static_cast<unsigned>(dims[0] - 2),
+          static_cast<unsigned>(dims[1] - 2),
+          static_cast<unsigned>(dims[2] - 2)};
+}
 
 // Writes padded corner c of the planes from the compact grid.
 __device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, PlaneElement* planes) {
@@ -187,7 +209,10 @@ __device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, P
   const float here[kBins] = {lo0.x, lo0.y, lo0.z, lo0.w, hi0.x, hi0.y, hi0.z, hi0.w};
   const float next[kBins] = {lo1.x, lo1.y, lo1.z, lo1.w, hi1.x, hi1.y, hi1.z, hi1.w};
 #pragma unroll
-  for (int b = 0; b < kBins; ++b) planes[b * layout.plane + c] = make_float2(here[b], next[b]);
+  for (int p = 0; p < kPlanes; ++p) {
+    const int b = p < 6 ? p : (p == 6 ? 0 : p - 1);
+    planes[p * layout.plane + c] = make_float2(here[b], next[b]);
+  }
 }
 
 // One thread per padded corner: the planes in global memory, for grids too large for shared memory.
@@ -207,45 +232,53 @@ __device__ __forceinline__ PlaneElement load(const PlaneElement* p) {
   }
 }
 
+// Bias that makes a float add round to an integer: for |u| < 2^22, u + kFloorBias rounded down
+// is floor(u) + kFloorBias exactly, with floor(u) in the low mantissa bits. This replaces the
+// floor and float-to-int conversions (quarter-rate instructions) by full-rate adds.
+constexpr float kFloorBias = 12582912.f;  // 1.5 * 2^23
+constexpr int kFloorBiasBits = 0x4B400000;
+
 // 3.18 with 3.19 for one point (a, b as in Frame::points) and the particle whose rows are r0, r1,
-// r2; 0 for points outside the grid (and NaN coordinates).
+// r2; 0 for points outside the grid. A coordinate beyond +-2^22 cells, infinite or NaN gives an
+// index outside [0, max] (the biased bits differ from kFloorBiasBits by at least 2^22), so such
+// points score 0 as on the CPU.
 template <bool kShared>
-__device__ __forceinline__ float point_score(const PlaneElement* planes, const GridLayout& layout, const float4& r0,
+__device__ __forceinline__ float point_score(const char* planes, const GridLayout& layout, const float4& r0,
                                              const float4& r1, const float4& r2, const float4& a, const float4& b) {
   const float ux = fmaf(r0.x, a.x, fmaf(r0.y, a.y, fmaf(r0.z, a.z, r0.w)));
   const float uy = fmaf(r1.x, a.x, fmaf(r1.y, a.y, fmaf(r1.z, a.z, r1.w)));
   const float uz = fmaf(r2.x, a.x, fmaf(r2.y, a.y, fmaf(r2.z, a.z, r2.w)));
-  const float fx = floorf(ux);
-  const float fy = floorf(uy);
-  const float fz = floorf(uz);
-  // False for NaN too.
-  const bool inside = fx >= 0.f && fx <= layout.max_x && fy >= 0.f && fy <= layout.max_y && fz >= 0.f &&
-                      fz <= layout.max_z;
-  const int cell = inside ? __float2int_rz(fz) * layout.stride_z + __float2int_rz(fy) * layout.stride_y +
-                                __float2int_rz(fx)
+  const float bx = __fadd_rd(ux, kFloorBias);
+  const float by = __fadd_rd(uy, kFloorBias);
+  const float bz = __fadd_rd(uz, kFloorBias);
+  const unsigned ix = static_cast<unsigned>(__float_as_int(bx) - kFloorBiasBits);
+  const unsigned iy = static_cast<unsigned>(__float_as_int(by) - kFloorBiasBits);
+  const unsigned iz = static_cast<unsigned>(__float_as_int(bz) - kFloorBiasBits);
+  const bool inside = ix <= layout.max_x && iy <= layout.max_y && iz <= layout.max_z;
+  const int cell = inside ? static_cast<int>(iz) * layout.bytes_z + static_cast<int>(iy) * layout.bytes_y +
+                                static_cast<int>(ix) * static_cast<int>(sizeof(PlaneElement))
                           : 0;
-  // The point's three non-zero bins: hue_bin, the next hue bin and one achromatic bin.
-  const int bin_lo = __float_as_int(a.w);
-  const int bin_hi = bin_lo == 5 ? 0 : bin_lo + 1;
-  const PlaneElement* lo = planes + bin_lo * layout.plane + cell;
-  const PlaneElement* hi = planes + bin_hi * layout.plane + cell;
-  const PlaneElement* gray = planes + __float_as_int(b.w) * layout.plane + cell;
-  const float tx = ux - fx;
+  // The point's three non-zero bins (a.w, b.w hold their planes' byte offsets): hue_bin, the next
+  // hue bin (the next plane) and one achromatic bin.
+  const char* lo = planes + __float_as_int(a.w) + cell;
+  const char* hi = lo + layout.plane * static_cast<int>(sizeof(PlaneElement));
+  const char* gray = planes + __float_as_int(b.w) + cell;
+  const float tx = ux - (bx - kFloorBias);
   // 3.19 at the corners x and x + 1 of one (y, z) edge of the cell, interpolated along x.
   const auto edge = [&](int offset) {
-    const float2 l = load<kShared>(lo + offset);
-    const float2 h = load<kShared>(hi + offset);
-    const float2 g = load<kShared>(gray + offset);
+    const float2 l = load<kShared>(reinterpret_cast<const PlaneElement*>(lo + offset));
+    const float2 h = load<kShared>(reinterpret_cast<const PlaneElement*>(hi + offset));
+    const float2 g = load<kShared>(reinterpret_cast<const PlaneElement*>(gray + offset));
     const float d0 = fmaf(b.x, l.x, fmaf(b.y, h.x, b.z * g.x));
     const float d1 = fmaf(b.x, l.y, fmaf(b.y, h.y, b.z * g.y));
     return lerp(d0, d1, tx);
   };
   const float e00 = edge(0);
-  const float e10 = edge(layout.stride_y);
-  const float e01 = edge(layout.stride_z);
-  const float e11 = edge(layout.stride_y + layout.stride_z);
-  const float ty = uy - fy;
-  const float score = lerp(lerp(e00, e10, ty), lerp(e01, e11, ty), uz - fz);
+  const float e10 = edge(layout.bytes_y);
+  const float e01 = edge(layout.bytes_z);
+  const float e11 = edge(layout.bytes_yz);
+  const float ty = uy - (by - kFloorBias);
+  const float score = lerp(lerp(e00, e10, ty), lerp(e01, e11, ty), uz - (bz - kFloorBias));
   return inside ? score : 0.f;
 }
 
@@ -281,13 +314,13 @@ __global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout l
   int item = static_cast<int>(blockIdx.x);
   prefetch(item);
 
-  const PlaneElement* planes = layout.planes;
+  const char* planes = reinterpret_cast<const char*>(layout.planes);
   float* reduce = reinterpret_cast<float*>(shared_memory);
   if constexpr (kShared) {
     auto* shared_planes = reinterpret_cast<PlaneElement*>(shared_memory);
     for (int c = thread; c < layout.plane; c += kThreadsPerBlock) expand_corner(layout, c, shared_planes);
-    planes = shared_planes;
-    reduce = reinterpret_cast<float*>(shared_planes + kBins * layout.plane);
+    planes = reinterpret_cast<const char*>(shared_planes);
+    reduce = reinterpret_cast<float*>(shared_planes + kPlanes * layout.plane);
     __syncthreads();
   }
 
@@ -407,6 +440,7 @@ struct JcsdDevice::State {
   int resident_blocks = 0;      // blocks of the chosen kernel that run at once on the device
   bool counters_zero = false;   // tile_done holds zeros (it is reset by every completed kernel)
   std::size_t staged_points = 0, staged_particles = 0;  // the frame staged by stage_frame
+  bool frame_staged = false;  // stage_frame was called since the last evaluate (which rewrites the records)
   DeviceTiming timing;
 
   void activate() const { check(cudaSetDevice(options.device), "cudaSetDevice"); }
@@ -481,11 +515,13 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   }
   const auto [stride_y, stride_z] = s.strides;
   const std::size_t plane = static_cast<std::size_t>(stride_z) * dims[2];
-  if (plane * kBins >= std::size_t{1} << 31) throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
+  if (plane * kPlanes * sizeof(PlaneElement) >= std::size_t{1} << 31) {
+    throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
+  }
   s.stride_y = stride_y;
   s.stride_z = stride_z;
   s.plane = static_cast<int>(plane);
-  const std::size_t shared_bytes = plane * kBins * sizeof(PlaneElement) + kReduceBytes;
+  const std::size_t shared_bytes = plane * kPlanes * sizeof(PlaneElement) + kReduceBytes;
   int blocks_per_sm = 0;
   if (shared_bytes <= static_cast<std::size_t>(s.max_shared_bytes)) {
     check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<true>, kThreadsPerBlock,
@@ -494,9 +530,8 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   }
   s.grid_in_shared = blocks_per_sm > 0;
   if (!s.grid_in_shared) {
-    s.planes.reserve(plane * kBins * sizeof(PlaneElement), s.stream, "cudaMalloc (grid planes)");
-    const GridLayout layout{s.raw_grid.as<float4>(), nullptr, dims[0], dims[1], stride_y, stride_z, s.plane,
-                            0.f, 0.f, 0.f};
+    s.planes.reserve(plane * kPlanes * sizeof(PlaneElement), s.stream, "cudaMalloc (grid planes)");
+    const GridLayout layout = make_layout(s.raw_grid.as<float4>(), nullptr, dims, stride_y, stride_z, s.plane);
     const int threads = 256;
     expand_planes_kernel<<<(s.plane + threads - 1) / threads, threads, 0, s.stream>>>(layout,
                                                                                       s.planes.as<PlaneElement>());
@@ -521,6 +556,7 @@ FrameStaging JcsdDevice::stage_frame(std::size_t points, std::size_t particles) 
                        s.stream, "cudaHostAlloc (frame)");
   s.staged_points = points;
   s.staged_particles = particles;
+  s.frame_staged = true;
   auto* base = s.frame_host.as<unsigned char>();
   return {reinterpret_cast<PointRecord*>(base),
           reinterpret_cast<ParticleRecord*>(base + points * sizeof(PointRecord))};
@@ -530,9 +566,10 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   State& s = *state_;
   if (particles == 0) return;
   if (s.corners == 0) throw std::runtime_error("CUDA JCSD: no grid on the device (none uploaded, or the upload failed)");
-  if (points != s.staged_points || particles != s.staged_particles) {
-    throw std::runtime_error("JcsdDevice::evaluate: counts differ from the last stage_frame's");
+  if (!s.frame_staged || points != s.staged_points || particles != s.staged_particles) {
+    throw std::runtime_error("JcsdDevice::evaluate: no frame staged with these counts (stage_frame first)");
   }
+  s.frame_staged = false;
   if (points == 0) {
     std::fill(scores, scores + particles, 0.f);
     return;
@@ -546,7 +583,7 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   const int split_points = (num_points + splits - 1) / splits;
   const int blocks = std::min(tiles * splits, s.resident_blocks);
   const std::size_t shared_bytes =
-      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kBins * sizeof(PlaneElement) + kReduceBytes : kReduceBytes;
+      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kPlanes * sizeof(PlaneElement) + kReduceBytes : kReduceBytes;
 
   const std::size_t frame_bytes = points * sizeof(PointRecord) + particles * sizeof(ParticleRecord);
   s.frame.reserve(frame_bytes + kFramePadBytes, s.stream, "cudaMalloc (frame)");
@@ -564,21 +601,25 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
     }
   }
 
+  // The kernel reads each point's bins as byte offsets of their planes (kPlanes).
+  const int plane_bytes = s.plane * static_cast<int>(sizeof(PlaneElement));
+  auto* records = s.frame_host.as<PointRecord>();
+  for (std::size_t j = 0; j < points; ++j) {
+    PointRecord& r = records[j];
+    if (r.hue_bin < 0 || r.hue_bin > 5 || (r.gray_bin != 6 && r.gray_bin != 7)) {
+      throw std::runtime_error("JcsdDevice::evaluate: point " + std::to_string(j) + " has a bin outside the SMR");
+    }
+    r.hue_bin *= plane_bytes;
+    r.gray_bin = (r.gray_bin + 1) * plane_bytes;
+  }
+
   s.counters_zero = false;  // until this call's kernel has completed (it leaves them zero)
   check(cudaEventRecord(s.begin, s.stream), "cudaEventRecord");
   check(cudaMemcpyAsync(s.frame.as<void>(), s.frame_host.as<void>(), frame_bytes, cudaMemcpyHostToDevice, s.stream),
         "cudaMemcpyAsync (frame)");
   const float4* device_points = s.frame.as<float4>();
-  const GridLayout layout{s.raw_grid.as<float4>(),
-                          s.planes.as<PlaneElement>(),
-                          s.dims[0],
-                          s.dims[1],
-                          s.stride_y,
-                          s.stride_z,
-                          s.plane,
-                          static_cast<float>(s.dims[0] - 2),
-                          static_cast<float>(s.dims[1] - 2),
-                          static_cast<float>(s.dims[2] - 2)};
+  const GridLayout layout =
+      make_layout(s.raw_grid.as<float4>(), s.planes.as<PlaneElement>(), s.dims, s.stride_y, s.stride_z, s.plane);
   const Frame frame{device_points,          num_points, device_points + 2 * points, num_particles,
                     splits,                 split_points, s.partials.as<float>(), s.tile_done.as<unsigned>(),
                     s.scores.as<float>()};

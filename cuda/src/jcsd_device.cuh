@@ -16,7 +16,8 @@ int device_count(std::string* why);
 // "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)"; throws on an invalid ordinal.
 std::string device_description(int device);
 
-// One hypothesis point as the kernel reads it: two 16-byte words.
+// One hypothesis point as the kernel reads it: two 16-byte words. The host writes the bins;
+// evaluate() turns them into the byte offsets of the kernel's grid planes.
 struct PointRecord {
   float x, y, z;             // camera frame, metres
   std::int32_t hue_bin;      // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
@@ -68,7 +69,7 @@ class JcsdDevice {
   FrameStaging stage_frame(std::size_t points, std::size_t particles);
   // Uploads the staged frame, scores it against the uploaded grid and writes the particle scores
   // to scores (host memory, `particles` floats). Blocks until done. points and particles are
-  // the counts given to the last stage_frame.
+  // the counts given to stage_frame, which must precede every evaluate.
   void evaluate(std::size_t points, std::size_t particles, float* scores);
 
   DeviceTiming last_timing() const;
