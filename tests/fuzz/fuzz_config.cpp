@@ -1,6 +1,7 @@
 // Fuzz target: the strict YAML config loader. The input is a config file's text: it is loaded
-// with load_config_file, checked with check_top_level, the capture section is read by the real
-// load_capture_settings (when mfot_capture is built), and the tracker/merger/preprocess/group
+// with load_config_file (which refuses unknown sections), read by the services' real loaders
+// (load_preprocess_config, load_tracker_config, load_merger_config, and load_capture_settings when
+// mfot_capture is built), and the tracker/merger/preprocess/group
 // sections are read through every ConfigSection path the services use (get<int|long|unsigned
 // long|float|double|bool|string> with and without ranges, choice, get_vector, nested section,
 // finish), each read on its own so one bad key does not hide the paths behind it.
@@ -9,6 +10,7 @@
 
 #include "fuzz_support.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 #ifdef MFOT_FUZZ_HAVE_CAPTURE
 #include "mfot/capture/capture_settings.hpp"
 #endif
@@ -69,7 +71,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
   MFOT_FUZZ_CHECK(root.IsMap());
-  read_or_config_error([&] { check_top_level(root, {"group", "capture", "preprocess", "tracker", "merger"}); });
+  // load_config_file refuses unknown sections, so checking them again must pass.
+  try {
+    check_top_level(root, known_sections());
+  } catch (const ConfigError&) {
+    mfot::fuzz::fail("load_config_file accepted an unknown top-level section");
+  }
+  // The services' own loaders, with their cross-field checks.
+  read_or_config_error([&] { load_preprocess_config(root); });
+  read_or_config_error([&] { load_tracker_config(root); });
+  read_or_config_error([&] { load_merger_config(root); });
 #ifdef MFOT_FUZZ_HAVE_CAPTURE
   read_or_config_error([&] { mfot::capture::load_capture_settings(config_section(root, "capture")).validate(); });
 #endif

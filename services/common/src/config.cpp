@@ -5,11 +5,22 @@
 
 namespace mfot::service {
 
+const std::vector<std::string>& known_sections() {
+  static const std::vector<std::string> sections = {"group",   "capture", "preprocess",
+                                                     "tracker", "merger",  "pcl_baseline"};
+  return sections;
+}
+
 YAML::Node load_config_file(const std::string& path) {
   try {
     YAML::Node root = YAML::LoadFile(path);
     if (root.IsNull()) return YAML::Node(YAML::NodeType::Map);
     if (!root.IsMap()) throw ConfigError(path + ": the top level must be a mapping of service sections");
+    try {
+      check_top_level(root, known_sections());
+    } catch (const ConfigError& e) {
+      throw ConfigError(path + ": " + e.what());
+    }
     return root;
   } catch (const YAML::BadFile&) {
     throw ConfigError(path + ": cannot open config file");
@@ -97,8 +108,10 @@ void check_top_level(const YAML::Node& root, const std::vector<std::string>& kno
     // A sequence or mapping key ("? [a, b]: 1") is never a known section.
     const auto key = item.first.IsScalar() ? item.first.Scalar() : std::string("<non-scalar key>");
     if (std::find(known_sections.begin(), known_sections.end(), key) == known_sections.end()) {
+      std::string list;
+      for (const auto& k : known_sections) list += (list.empty() ? "" : "|") + k;
       throw ConfigError("unknown config section '" + key + "' (line " + std::to_string(item.first.Mark().line + 1) +
-                        ")");
+                        "): the sections are " + list);
     }
   }
 }

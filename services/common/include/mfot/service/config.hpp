@@ -15,7 +15,13 @@ struct ConfigError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Parses a YAML file; throws ConfigError naming the file (and line for syntax errors).
+// The top-level sections a config file may have: the services' own, `group` (scripts/mfot-run)
+// and `pcl_baseline` (mfot-pcl-baseline).
+const std::vector<std::string>& known_sections();
+
+// Parses a YAML file; throws ConfigError naming the file (and line for syntax errors), and when
+// the top level has a section that is not one of known_sections() (a misspelt section would
+// otherwise be ignored and its settings silently left at their defaults).
 YAML::Node load_config_file(const std::string& path);
 
 // A strict view of one YAML mapping. Reads record the key; finish() throws listing unknown keys.
