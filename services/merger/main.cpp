@@ -42,6 +42,9 @@ constexpr std::chrono::milliseconds kModelInFlight{200};
 // means the worker never got the scene (a worker heartbeats only between frames). Sending it
 // again is harmless: a worker that has it already skips the repeat.
 constexpr std::chrono::milliseconds kSceneInFlight{50};
+// A scene is sent again at most this many times: a worker that is merely slow skips the repeats;
+// past this the estimate timeout decides.
+constexpr int kMaxSceneResends = 3;
 // A scene this many frames older than the last one finished starts a new frame sequence (a
 // restarted capture or replay); anything closer is a late or repeated message.
 constexpr std::int64_t kSequenceRestart = 100;
@@ -90,6 +93,7 @@ class Merger {
     std::vector<std::uint8_t> message;  // as received, to send again to a worker that lost it
     Clock::time_point arrived;
     Clock::time_point sent;  // arrival or the last time it was sent again
+    int resends = 0;
   };
 
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
@@ -253,10 +257,11 @@ class Merger {
         resend = true;
       }
     }
-    if (!complete && resend) {
+    if (!complete && resend && next.resends < kMaxSceneResends) {
       spdlog::info("a worker did not get the scene of frame {}; sending it again", seq);
       lcm_.publish(channel::kScene, next.message.data(), static_cast<unsigned>(next.message.size()));
       next.sent = now;
+      ++next.resends;
     }
     const bool timed_out = now - next.arrived > std::chrono::milliseconds(config_.estimate_timeout_ms);
     if (!complete && !timed_out) return false;

@@ -94,6 +94,9 @@ int replay(const std::string& log_path, const std::string& url, const std::strin
     status.tick();
   }
   spdlog::info("replayed {} frames from {}", published, log_path);
+  // Say it at once, so the process group hears why the source ended.
+  status.set_message("log ended after " + std::to_string(published) + " frames");
+  status.publish();
   return 0;
 }
 
