@@ -16,6 +16,11 @@ void ObjectManagerOptions::validate() const {
   support.validate();
   if (min_object_points < 1) throw std::invalid_argument("ObjectManagerOptions.min_object_points must be >= 1");
   if (growth_frames < 0) throw std::invalid_argument("ObjectManagerOptions.growth_frames must be >= 0");
+  if (reidentify_frames < 0) throw std::invalid_argument("ObjectManagerOptions.reidentify_frames must be >= 0");
+  if (!(reidentify_similarity > 0.f && reidentify_similarity <= 1.f)) {
+    throw std::invalid_argument("ObjectManagerOptions.reidentify_similarity must be in (0, 1], got " +
+                                std::to_string(reidentify_similarity));
+  }
   if (!(propagation_radius >= 0.f && propagation_radius <= 0.1f)) {
     throw std::invalid_argument("ObjectManagerOptions.propagation_radius must be in [0, 0.1] m, got " +
                                 std::to_string(propagation_radius));
@@ -45,10 +50,16 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     throw std::invalid_argument("ObjectManager::process: the scene has " + std::to_string(scene.colors.size()) +
                                 " colours for " + std::to_string(scene.size()) + " points");
   }
-  // A non-finite point would become a non-finite model and pose (and a NaN spatial-hash key).
+  // A non-finite point would become a non-finite model and pose (and a NaN spatial-hash key); a
+  // cluster index beyond the point count would size the per-cluster tables below.
   for (std::size_t i = 0; i < scene.size(); ++i) {
     if (!scene.positions[i].allFinite()) {
       throw std::invalid_argument("ObjectManager::process: scene point " + std::to_string(i) + " is non-finite");
+    }
+    if (cluster_of_point[i] < -1 || static_cast<std::size_t>(cluster_of_point[i] + 1) > scene.size()) {
+      throw std::invalid_argument("ObjectManager::process: cluster index " + std::to_string(cluster_of_point[i]) +
+                                  " of point " + std::to_string(i) + " is outside [-1, " +
+                                  std::to_string(scene.size()) + ")");
     }
   }
   frame_.created.clear();
@@ -89,9 +100,16 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   // 4. retire objects without support
   support_.update(segmentation_.object_ids, segmentation_.counts, frame_.retired);
   for (const std::int32_t id : frame_.retired) {
+    if (options_.reidentify_frames > 0) {
+      const ManagedObject& object = objects_.at(id);
+      retired_[id] = {frames_, object.version, color_histogram(object.model)};
+    }
     objects_.erase(id);
     updaters_.erase(id);
   }
+  std::erase_if(retired_, [&](const auto& entry) {
+    return frames_ - entry.second.retired_frame >= options_.reidentify_frames;
+  });
 
   // 5. new objects from clusters no object explains
   clusters_.point_indices.clear();
@@ -119,6 +137,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
     for (const int c : confirmed_) create_object(scene, clusters_.cluster(static_cast<std::size_t>(c)));
   }
+  std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
   ++frames_;
   return frame_;
 }
@@ -190,6 +209,35 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
   ++object.version;
 }
 
+ObjectManager::ColorHistogram ObjectManager::color_histogram(const ObjectModel& model) {
+  ColorHistogram histogram{};
+  float total = 0.f;
+  for (const SmrFeature& f : model.features) {
+    histogram[f.hue_bin] += f.hue_weight_lo;
+    histogram[(f.hue_bin + 1) % 6] += f.hue_weight_hi;
+    histogram[f.gray_bin] += f.gray_weight;
+    total += f.hue_weight_lo + f.hue_weight_hi + f.gray_weight;
+  }
+  if (total > 0.f) {
+    for (float& h : histogram) h /= total;
+  }
+  return histogram;
+}
+
+std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram) const {
+  std::int32_t best = 0;
+  float best_similarity = options_.reidentify_similarity;
+  for (const auto& [id, retired] : retired_) {  // ascending ids: ties keep the oldest
+    float similarity = 0.f;
+    for (int b = 0; b < kSmrBins; ++b) similarity += std::sqrt(histogram[b] * retired.histogram[b]);
+    if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
+      best = id;
+      best_similarity = similarity;
+    }
+  }
+  return best;
+}
+
 void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> cluster_points) {
   // Only the cluster's points that no object explains form the new model.
   std::vector<int> free_points;
@@ -203,7 +251,6 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   centroid /= static_cast<float>(free_points.size());
 
   ManagedObject object;
-  object.id = next_id_++;
   object.pose.translation = centroid;
   object.model.cloud.reserve(n);
   // Deterministic even subsampling keeps the model spread over the whole cluster.
@@ -212,6 +259,14 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
     object.model.cloud.push_back(scene.positions[i] - centroid, scene.colors[i]);
   }
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
+  const std::int32_t known = frames_ > 0 ? reidentify(color_histogram(object.model)) : 0;
+  if (known != 0) {
+    object.id = known;
+    object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
+    retired_.erase(known);
+  } else {
+    object.id = next_id_++;
+  }
   object.support = free_points.size();
   object.confidence = 1.f;
   object.created_frame = frames_;

@@ -84,6 +84,45 @@ TEST(ObjectManager, RetiresAnObjectThatLostItsSupport) {
   EXPECT_EQ(manager.objects().count(1), 1u);
 }
 
+TEST(ObjectManager, AnObjectComingBackTakesItsIdBackAndADifferentOneDoesNot) {
+  TwoBlocks scene;
+  ObjectManagerOptions options;
+  options.support.max_frames = 2;
+  options.new_objects.confirm_frames = 1;
+  ObjectManager manager(options);
+  manager.process(scene.cloud, scene.cluster, {});
+  const std::int32_t version = manager.objects().at(2).version;
+  ColoredCloud remaining;
+  std::vector<std::int32_t> cluster;
+  add_block(remaining, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  for (int t = 0; t < 2; ++t) manager.process(remaining, cluster, unchanged(manager));
+  ASSERT_EQ(manager.objects().count(2), 0u);
+
+  // The same block reaches in elsewhere: id 2 again, with a newer model version.
+  ColoredCloud back = remaining;
+  std::vector<std::int32_t> back_cluster = cluster;
+  add_block(back, back_cluster, 1, {0.15f, 0.05f, 1.f}, {10, 14, 6});
+  const auto& returned = manager.process(back, back_cluster, unchanged(manager));
+  EXPECT_EQ(returned.created, (std::vector<std::int32_t>{2}));
+  EXPECT_GT(manager.objects().at(2).version, version);
+
+  // A block of other colours is a new object.
+  ColoredCloud other = back;
+  std::vector<std::int32_t> other_cluster = back_cluster;
+  const std::size_t first_new = other.size();
+  add_block(other, other_cluster, 2, {0.f, 0.2f, 1.f}, {8, 8, 6});
+  for (std::size_t i = first_new; i < other.size(); ++i) other.colors[i] = {20, 30, 220};
+  const auto& fresh = manager.process(other, other_cluster, unchanged(manager));
+  EXPECT_EQ(fresh.created, (std::vector<std::int32_t>{3}));
+
+  // Re-identification off: the returning block gets a new id.
+  options.reidentify_frames = 0;
+  ObjectManager forgetful(options);
+  forgetful.process(scene.cloud, scene.cluster, {});
+  for (int t = 0; t < 2; ++t) forgetful.process(remaining, cluster, unchanged(forgetful));
+  EXPECT_EQ(forgetful.process(back, back_cluster, unchanged(forgetful)).created, (std::vector<std::int32_t>{3}));
+}
+
 TEST(ObjectManager, ANewClusterBecomesAnObjectAfterPersisting) {
   TwoBlocks scene;
   ObjectManagerOptions options;

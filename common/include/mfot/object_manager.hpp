@@ -11,6 +11,7 @@
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -37,6 +38,12 @@ struct ObjectManagerOptions {
   // objects entering the view (a hand and its arm reaching in from the border) are seen a part
   // at a time. 0 disables growth.
   int growth_frames = 300;
+  // A retired object is remembered this many frames (0: never): a new object whose colour
+  // distribution matches a remembered one's takes its id back (a hand leaving the view and
+  // reaching in again, an object lost and found again), so ids stay stable for controllers.
+  int reidentify_frames = 900;
+  // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
+  float reidentify_similarity = 0.9f;
   void validate() const;
 };
 
@@ -74,7 +81,9 @@ struct ObjectManagerFrame {
 //      their models by the points they gain;
 //   6. create objects from clusters that no object explains: at the first frame every cluster,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
-//      model is the cluster in a frame at its centroid, axis-aligned with the camera.
+//      model is the cluster in a frame at its centroid, axis-aligned with the camera. A new
+//      object whose SMR colour histogram matches a recently retired object's takes that id
+//      back (its model and object frame are new: the pose jumps once).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -95,6 +104,16 @@ class ObjectManager {
   std::int64_t frames_processed() const { return frames_; }
 
  private:
+  using ColorHistogram = std::array<float, kSmrBins>;
+  struct RetiredObject {
+    std::int64_t retired_frame = 0;
+    std::int32_t version = 0;
+    ColorHistogram histogram{};
+  };
+  static ColorHistogram color_histogram(const ObjectModel& model);
+  // The remembered id the histogram matches best, or 0.
+  std::int32_t reidentify(const ColorHistogram& histogram) const;
+
   void create_object(const ColoredCloud& scene, std::span<const int> cluster_points);
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
@@ -106,6 +125,7 @@ class ObjectManager {
   SupportMonitor support_;
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
+  std::map<std::int32_t, RetiredObject> retired_;
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
   ObjectManagerFrame frame_;

@@ -92,6 +92,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
   c.manager.growth_frames = s.get<int>("growth_frames", 300, 0, 100000);
   c.manager.propagation_radius = s.get<float>("propagation_radius", 0.015f, 0.f, 0.1f);
+  c.manager.reidentify_frames = s.get<int>("reidentify_frames", 900, 0, 1000000);
+  c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 0.9f, 1e-3f, 1.f);
   c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 3, 1, 1000);
   c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
   c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
