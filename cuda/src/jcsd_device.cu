@@ -8,13 +8,13 @@
 //     global memory at upload and read through the read-only cache.
 //  2. evaluate: points (32 B) and particles (48 B, the inverse pose already in grid units) go to
 //     the device in one asynchronous copy from pinned memory, on this object's stream.
-//  3. the scoring kernel: one resident block of 1024 threads per multiprocessor takes work
-//     items (a tile of 16 particles, a split of the points) in turn. The 16 lanes of each half
-//     warp hold the tile's particles and read the same point, 64 points per pass of the block.
+//  3. the scoring kernel: one resident block of 512 threads per multiprocessor takes work items
+//     (a tile of 16 particles, a split of the points) in turn. The 16 lanes of each half warp
+//     hold the tile's particles and read the same point, 32 points per pass of the block.
 //     Shared memory serves 8-byte loads per half warp, and since a filter's particles lie close
 //     together the half warp looks up the same or adjacent cells, which the padded strides put
 //     on distinct banks: broadcasts without bank conflicts in the common case. Each thread keeps
-//     its next point in registers while it scores the current one. The block adds its threads'
+//     its next point in registers while it scores the current one, two passes unrolled. The block adds its threads'
 //     sums in a fixed order (shuffles, shared memory); with several splits per tile the block
 //     that finishes a tile last (one integer counter per tile) adds the splits' sums in split
 //     order. No floating-point atomics: scores are bit-identical from call to call. Splits are
@@ -35,7 +35,9 @@ namespace mfot::cuda_detail {
 namespace {
 
 constexpr int kWarpSize = 32;
-constexpr int kThreadsPerBlock = 1024;
+// 512 threads of about 104 registers (two points in flight per thread) measured 3 % faster on
+// the H100 than 1024 threads of 64 registers (one point).
+constexpr int kThreadsPerBlock = 512;
 constexpr int kWarpsPerBlock = kThreadsPerBlock / kWarpSize;
 constexpr int kBins = 8;
 // Planes: bins 0 to 5, bin 0 again (so that the plane after hue bin b always holds bin
@@ -329,6 +331,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout l
     const int split = item - tile * frame.splits;
     const int last = min((split + 1) * frame.split_points, frame.num_points);
     float sum = 0.f;
+#pragma unroll 2
     for (int j = split * frame.split_points + slot; j < last; j += kPointsPerPass) {
       const int next = j + kPointsPerPass;
       const float4 next_a = __ldg(points + 2 * next);
