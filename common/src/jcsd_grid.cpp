@@ -46,6 +46,16 @@ JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
   const float r = options.cell_size;
   const int pad = options.padding_cells;
   grid.origin = lo - Eigen::Vector3f::Constant(static_cast<float>(pad) * r);
+  // Checked before any conversion to int: far-apart (or non-finite) points would otherwise ask for
+  // an unbounded grid.
+  double corners = 1.0;
+  for (int a = 0; a < 3; ++a) corners *= std::floor(static_cast<double>(hi[a] - lo[a]) / r) + 2.0 + 2.0 * pad;
+  if (!(corners <= static_cast<double>(kJcsdMaxCorners))) {
+    throw std::invalid_argument("build_jcsd_grid: points spanning " + std::to_string(hi.x() - lo.x()) + " x " +
+                                std::to_string(hi.y() - lo.y()) + " x " + std::to_string(hi.z() - lo.z()) +
+                                " m need more than " + std::to_string(kJcsdMaxCorners) + " grid corners at cell " +
+                                std::to_string(r) + " m");
+  }
   for (int a = 0; a < 3; ++a) {
     const int cells = static_cast<int>(std::floor((hi[a] - lo[a]) / r)) + 1 + 2 * pad;
     grid.dims[a] = cells + 1;

@@ -149,6 +149,31 @@ TEST(EdgeScenes, NonFiniteScenePointsAreRefusedByTheManager) {
   EXPECT_TRUE(manager.objects().empty());
 }
 
+TEST(EdgeScenes, ClusterIndexBeyondThePointsIsRefusedByTheManager) {
+  ObjectManager manager;
+  ColoredCloud scene;
+  for (int i = 0; i < 60; ++i) scene.push_back(Eigen::Vector3f(0.001f * static_cast<float>(i), 0.f, 1.f), Rgb8{});
+  std::vector<std::int32_t> clusters(scene.size(), 0);
+  clusters[7] = std::numeric_limits<std::int32_t>::max() - 1;  // would size a table of 2^31 clusters
+  EXPECT_THROW(manager.process(scene, clusters, {}), std::invalid_argument);
+  clusters[7] = -2;
+  EXPECT_THROW(manager.process(scene, clusters, {}), std::invalid_argument);
+  clusters[7] = 0;
+  EXPECT_NO_THROW(manager.process(scene, clusters, {}));
+  EXPECT_EQ(manager.objects().size(), 1u);
+}
+
+TEST(EdgeScenes, ModelTooLargeForAJcsdGridIsRefused) {
+  ObjectModel model;
+  model.cloud.push_back(Eigen::Vector3f::Zero(), Rgb8{255, 0, 0});
+  model.cloud.push_back(Eigen::Vector3f(1000.f, 1000.f, 1000.f), Rgb8{255, 0, 0});
+  model.features = compute_smr(model.cloud.colors);
+  JcsdLikelihood likelihood;
+  EXPECT_THROW(likelihood.set_model(model), std::invalid_argument);
+  model.cloud.positions[1] = Eigen::Vector3f(0.1f, 0.1f, 0.1f);
+  EXPECT_NO_THROW(likelihood.set_model(model));
+}
+
 TEST(EdgeScenes, NonFiniteEstimateLeavesTheObjectStaleWithItsLastPose) {
   CorePipeline pipeline;  // for a preprocessed scene with one cube
   test_scene::Scene scene;

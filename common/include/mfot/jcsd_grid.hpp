@@ -5,6 +5,7 @@
 #include "mfot/types.hpp"
 
 #include <array>
+#include <cstddef>
 #include <span>
 #include <vector>
 
@@ -41,10 +42,15 @@ struct ObjectModel;
 // [1, 16] (at least one cell so every point's cell has all eight corners inside the grid).
 void validate(const JcsdGridOptions& options);
 
+// Upper bound on a grid's corners (8 floats each: 512 MiB): a 2 m cube at the default 1.5 cm cell
+// needs 2.4M.
+inline constexpr std::size_t kJcsdMaxCorners = std::size_t{1} << 24;
+
 // Algorithm 3: J(c, s) += (1/n) h(c) K_r(|s - p|) over the 8 corners s of each point's cell, with
 // the triangular kernel K_r(d) = max(r - d, 0) / r (3.12). The grid spans the points' bounding
 // box padded by padding_cells on every side. O(n) in the number of points. An empty point set
-// gives an empty grid. positions and features must have the same length.
+// gives an empty grid. positions and features must have the same length; throws
+// std::invalid_argument when the grid would exceed kJcsdMaxCorners.
 JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
                          std::span<const SmrFeature> features, const JcsdGridOptions& options = {},
                          JcsdBuildStats* stats = nullptr);
