@@ -53,7 +53,7 @@ constexpr int kMaxSplits = 64;                            // split sums per part
 constexpr int kMinSplitPoints = kPointsPerPass;           // fewer would leave threads idle
 constexpr std::size_t kMaxItems = std::size_t{1} << 24;  // points or particles per call
 // Device frame padding: a thread's prefetch reads up to kPointsPerPass points past the last one.
-constexpr std::size_t kFramePadBytes = kPointsPerPass * 32;
+constexpr std::size_t kFramePadBytes = kPointsPerPass * sizeof(PointRecord);
 
 void check(cudaError_t status, const char* what) {
   if (status != cudaSuccess) {
