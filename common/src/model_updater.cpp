@@ -42,9 +42,14 @@ void ModelUpdateOptions::validate() const {
   if (!(alpha >= 0.f && alpha <= 1.f)) {
     throw std::invalid_argument("ModelUpdateOptions.alpha must be in [0, 1], got " + std::to_string(alpha));
   }
+  if (!(seen_radius >= 0.f && seen_radius <= 0.1f)) {
+    throw std::invalid_argument("ModelUpdateOptions.seen_radius must be in [0, 0.1] m, got " +
+                                std::to_string(seen_radius));
+  }
 }
 
-ModelUpdater::ModelUpdater(const ModelUpdateOptions& options) : options_(validated(options)), rng_(options.seed) {}
+ModelUpdater::ModelUpdater(const ModelUpdateOptions& options)
+    : options_(validated(options)), rng_(options.seed), seen_hash_(std::max(options.seen_radius, 1e-3f)) {}
 
 ObjectModel ModelUpdater::update(const ObjectModel& old_model, const ColoredCloud& segmented, const Pose& estimate) {
   check_model(old_model);
@@ -81,14 +86,40 @@ ObjectModel ModelUpdater::mix(const ObjectModel& old_model, const ColoredCloud& 
   const std::size_t old_size = old_model.cloud.size();
   const std::size_t available = new_candidates_.size();
   const std::size_t target = options_.target_size > 0 ? options_.target_size : old_size;
+  Pose pose = estimate;
+  pose.rotation.normalize();
+  const Eigen::Isometry3f to_object = pose.isometry().inverse();
+
+  // Old points without a segmented point near them are unseen (occluded or out of view).
+  old_candidates_.clear();
+  unseen_.clear();
+  if (options_.seen_radius > 0.f && options_.alpha > 0.f && available > 0) {
+    segmented_in_object_.clear();
+    for (const int i : new_candidates_) segmented_in_object_.push_back(to_object * source.positions[static_cast<std::size_t>(i)]);
+    seen_hash_.build(segmented_in_object_);
+    for (std::size_t i = 0; i < old_size; ++i) {
+      const bool seen = seen_hash_.nearest(old_model.cloud.positions[i], options_.seen_radius) >= 0;
+      (seen ? old_candidates_ : unseen_).push_back(static_cast<int>(i));
+    }
+  } else {
+    for (std::size_t i = 0; i < old_size; ++i) old_candidates_.push_back(static_cast<int>(i));
+  }
 
   std::size_t n_new = std::min(static_cast<std::size_t>(std::llround(static_cast<double>(options_.alpha) * target)), available);
-  const std::size_t n_old = std::min(target - n_new, old_size);
+  if (!unseen_.empty() && target <= old_size) n_new = std::min(n_new, old_candidates_.size());
+  std::size_t n_old = std::min(target - std::min(target, n_new), old_size);
   n_new = std::min(target - n_old, available);
 
-  old_candidates_.resize(old_size);
-  for (std::size_t i = 0; i < old_size; ++i) old_candidates_[i] = static_cast<int>(i);
-  draw_without_replacement(old_candidates_, n_old);
+  // Unseen points are kept first; the rest of n_old is drawn from the seen ones. A shrinking
+  // model (target below the unseen count) draws over all old points.
+  if (unseen_.size() > n_old) {
+    old_candidates_.insert(old_candidates_.end(), unseen_.begin(), unseen_.end());
+    unseen_.clear();
+  }
+  draw_without_replacement(old_candidates_, n_old - unseen_.size());
+  old_candidates_.resize(n_old - unseen_.size());
+  old_candidates_.insert(old_candidates_.end(), unseen_.begin(), unseen_.end());
+  std::sort(old_candidates_.begin(), old_candidates_.end());
   draw_without_replacement(new_candidates_, n_new);
 
   ObjectModel model;
@@ -100,9 +131,6 @@ ObjectModel ModelUpdater::mix(const ObjectModel& old_model, const ColoredCloud& 
     model.features.push_back(old_model.features[i]);
   }
 
-  Pose pose = estimate;
-  pose.rotation.normalize();
-  const Eigen::Isometry3f to_object = pose.isometry().inverse();
   new_colors_.resize(n_new);
   for (std::size_t k = 0; k < n_new; ++k) {
     const auto i = static_cast<std::size_t>(new_candidates_[k]);

@@ -6,6 +6,7 @@
 #include <random>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 namespace mfot {
@@ -58,17 +59,20 @@ int segment_index(const Rgb8& c) { return c.b == 200 ? c.r + 256 * c.g : -1; }
 
 constexpr Rgb8 kOldColor{220, 30, 30};
 
-ModelUpdateOptions options(float alpha, std::uint64_t seed, std::size_t target_size = 0) {
+// The thesis's uniform forgetting (seen_radius 0) unless a test asks for the occlusion-aware one.
+ModelUpdateOptions options(float alpha, std::uint64_t seed, std::size_t target_size = 0, float seen_radius = 0.f) {
   ModelUpdateOptions o;
   o.alpha = alpha;
   o.seed = seed;
   o.target_size = target_size;
+  o.seen_radius = seen_radius;
   return o;
 }
 
 TEST(ModelUpdate, RejectsInvalidOptionsAndInputs) {
   EXPECT_THROW(ModelUpdater(options(-0.1f, 1)), std::invalid_argument);
   EXPECT_THROW(ModelUpdater(options(1.5f, 1)), std::invalid_argument);
+  EXPECT_THROW(ModelUpdater(options(0.1f, 1, 0, -0.01f)), std::invalid_argument);
   ModelUpdater updater;
   ObjectModel broken = make_model(10, kOldColor, 1);
   broken.features.pop_back();
@@ -76,6 +80,36 @@ TEST(ModelUpdate, RejectsInvalidOptionsAndInputs) {
   const ObjectModel model = make_model(10, kOldColor, 1);
   const std::vector<std::int32_t> labels = {1};
   EXPECT_THROW(updater.update(model, ColoredCloud{}, labels, 1, Pose{}), std::invalid_argument);
+}
+
+TEST(ModelUpdate, KeepsWhatIsNotSeenAndForgetsOnlySeenPoints) {
+  // The old model fills a 10 cm cube; this frame only its x < 4 cm half is segmented (a hand
+  // covers the rest). Every old point of the covered half must survive the update.
+  const ObjectModel old_model = make_model(1000, kOldColor, 1);
+  const Pose pose = test_pose();
+  Segment segment = make_segment(3000, pose, 2);
+  ColoredCloud visible;
+  for (std::size_t i = 0; i < segment.camera_frame.size(); ++i) {
+    if (segment.object_frame[i].x() < 0.04f) visible.push_back(segment.camera_frame.positions[i], segment.camera_frame.colors[i]);
+  }
+  ModelUpdater updater(options(0.2f, 3, 0, 0.01f));
+  const ObjectModel updated = updater.update(old_model, visible, pose);
+  ASSERT_EQ(updated.cloud.size(), old_model.cloud.size());
+  std::size_t old_kept = 0, covered_old = 0, covered_kept = 0;
+  std::multiset<std::tuple<float, float, float>> kept;
+  for (std::size_t i = 0; i < updated.cloud.size(); ++i) {
+    if (segment_index(updated.cloud.colors[i]) >= 0) continue;
+    const auto& p = updated.cloud.positions[i];
+    kept.insert({p.x(), p.y(), p.z()});
+    ++old_kept;
+  }
+  for (const auto& p : old_model.cloud.positions) {
+    if (p.x() <= 0.05f) continue;  // beyond seen_radius of every segmented point
+    ++covered_old;
+    covered_kept += kept.count({p.x(), p.y(), p.z()});
+  }
+  EXPECT_EQ(covered_kept, covered_old);
+  EXPECT_EQ(old_kept, old_model.cloud.size() - 200u);  // alpha 0.2 of 1000 replaced, all from the seen half
 }
 
 TEST(ModelUpdate, AlphaZeroKeepsTheModel) {

@@ -3,6 +3,7 @@
 
 #include "mfot/likelihood.hpp"
 #include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
 #include <cstdint>
@@ -20,6 +21,10 @@ struct ModelUpdateOptions {
   // towards it from the segmented points, a larger one shrinks).
   std::size_t target_size = 0;
   SmrOptions smr;                // colour feature of the points taken from the scene
+  // > 0: only old points seen this frame (a segmented point within this distance, metres) are
+  // forgotten, so the model keeps what is occluded (a hand covering half a box would otherwise
+  // erase that half at alpha per frame). 0: the thesis's uniform draw over the whole old model.
+  float seen_radius = 0.01f;
   void validate() const;
 };
 
@@ -29,6 +34,8 @@ struct ModelUpdateOptions {
 //      n_old = min(n - n_new, #old); when still short of n, take more segmented points;
 //   2. draw n_old old points and n_new segmented points uniformly without replacement from the
 //      updater's seeded generator; old points keep their order and features, new ones follow;
+//      with seen_radius > 0 every old point without a segmented point near it is kept and the
+//      forgotten ones are drawn from the seen ones (n_new is capped by their number);
 //   3. move the new points into the object frame with the inverse estimate and compute their
 //      SMR features.
 // alpha = 0 (with the default size policy) returns the old model unchanged. Rebuilding the
@@ -57,6 +64,9 @@ class ModelUpdater {
   std::mt19937_64 rng_;
   std::vector<int> new_candidates_;  // indices into the segmented points
   std::vector<int> old_candidates_;  // indices into the old model
+  std::vector<int> unseen_;          // old model points without a segmented point near them
+  std::vector<Eigen::Vector3f> segmented_in_object_;
+  SpatialHash seen_hash_{0.01f};
   std::vector<Rgb8> new_colors_;
 };
 

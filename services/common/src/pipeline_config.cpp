@@ -87,6 +87,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   auto s = config_section(root, "merger");
   c.manager.segmentation.tau = s.get<float>("tau", 0.010f, 1e-4f, 0.1f);
   c.manager.model_update.alpha = s.get<float>("alpha", 0.02f, 0.f, 1.f);
+  c.manager.model_update.seen_radius = s.get<float>("seen_radius", c.manager.model_update.seen_radius, 0.f, 0.1f);
   c.manager.model_update.seed = s.get<std::uint64_t>("seed", 1);
   c.manager.min_object_points = s.get<std::size_t>("min_object_points", 50, 1, 100000);
   c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
