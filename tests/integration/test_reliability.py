@@ -47,6 +47,7 @@ class Bus:
         self.changed = threading.Condition()
         self.closing = False
         self.explain = lambda: ""  # more about a timeout: the services' logs
+        self.running = lambda: True  # whether what the test waits for can still happen
         for channel in channels:
             self.lcm.subscribe(channel, self._on_message)
         self.thread = threading.Thread(target=self._run, daemon=True)
@@ -69,7 +70,8 @@ class Bus:
 
     def wait_for(self, what: str, predicate, timeout: float):
         """Waits until predicate(events) returns something truthy; returns it, or fails the test
-        naming `what` after `timeout` seconds."""
+        naming `what` after `timeout` seconds or as soon as the process group has ended."""
+        deadline = time.monotonic() + timeout
         with self.changed:
             result = None
 
@@ -78,8 +80,12 @@ class Bus:
                 result = predicate(self.events)
                 return result
 
-            if not self.changed.wait_for(check, timeout):
-                raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}\n{self.explain()}")
+            # Woken by every message; at least once a second to notice a group that ended.
+            while not self.changed.wait_for(check, min(1.0, max(0.0, deadline - time.monotonic()))):
+                if not self.running():
+                    raise AssertionError(f"the process group ended while waiting for {what}\n{self.explain()}")
+                if time.monotonic() >= deadline:
+                    raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}\n{self.explain()}")
             return result
 
     def snapshot(self, channel: str) -> list[tuple[float, object]]:
@@ -178,6 +184,7 @@ class ReliabilityTest(unittest.TestCase):
         group = Group(self.dir / "run", url(port), *args)
         self.addCleanup(group.stop)
         bus.explain = group.report
+        bus.running = lambda: group.proc.poll() is None
         self.group = group
         return group, bus
 
@@ -302,7 +309,7 @@ class ReliabilityTest(unittest.TestCase):
         self.assertLess(max(gaps), WORKER_TIMEOUT_S + 1.5, "poses stall at most for the worker timeout")
         # The group runs to the end; it reports the worker it could not restart.
         self.assertEqual(group.wait(180), 1, group.report())
-        self.assertIn(f"tracker{worker} exited with -9; not restarting", group.stdout_path.read_text())
+        self.assertIn(f"tracker{worker} stopped: it exited with -9; not restarting", group.stdout_path.read_text())
         self.assertEqual([p.frame_seq for _, p in logged(group.out, "MFOT_POSES")], list(range(frames)),
                          "no frame lost")
 
