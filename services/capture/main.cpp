@@ -354,7 +354,7 @@ int measure_encodings(FrameSource& source, const service::EncodeOptions& base, i
               "encode ms", "decode ms", "mean err", "max err");
   using service::ColorEncoding;
   using service::DepthEncoding;
-  for (const auto depth : {DepthEncoding::kRaw, DepthEncoding::kZlib}) {
+  for (const auto depth : {DepthEncoding::kRaw, DepthEncoding::kZlib, DepthEncoding::kRvl}) {
     for (const auto color : {ColorEncoding::kRaw, ColorEncoding::kPng, ColorEncoding::kJpeg}) {
       service::EncodeOptions options = base;
       options.depth = depth;
@@ -431,7 +431,8 @@ int main(int argc, char** argv) {
   auto* o_loop = app.add_flag("--loop", cli.loop, "restart a finite source at its end");
   auto* o_truth = app.add_option("--groundtruth-dir", cli.groundtruth_dir,
                                  "write ground truth (poses.csv, labels/) of sources that have it to this folder");
-  auto* o_depth = app.add_option("--depth-encoding", depth_encoding, "raw | zlib")->check(CLI::IsMember({"raw", "zlib"}));
+  auto* o_depth = app.add_option("--depth-encoding", depth_encoding, "raw | zlib | rvl")
+                      ->check(CLI::IsMember({"raw", "zlib", "rvl"}));
   auto* o_color =
       app.add_option("--color-encoding", color_encoding, "raw | jpeg | png")->check(CLI::IsMember({"raw", "jpeg", "png"}));
   auto* o_quality = app.add_option("--jpeg-quality", cli.encoding.jpeg_quality, "JPEG quality [1, 100]");
