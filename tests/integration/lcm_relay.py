@@ -6,7 +6,8 @@ network would.
     lcm_relay.py --a URL_A --b URL_B --a-to-b MFOT_SCENE,MFOT_MODEL \
         --b-to-a MFOT_ESTIMATE,MFOT_HEARTBEAT,MFOT_STATUS --drop MFOT_SCENE=0.1 --swap 0.05 --seed 7
 
-A swapped message is held back and sent right after the next message on its channel (or after
+Each channel draws from its own generator, seeded from --seed and the channel name, so the n-th
+message of a channel meets the same fate in every run. A swapped message is held back and sent right after the next message on its channel (or after
 --hold-s when none comes), so receivers see the two out of order. Prints "ready" once both
 buses are open; on SIGTERM or SIGINT prints per-channel counts as one JSON line and exits 0.
 """
@@ -48,8 +49,9 @@ class Direction:
     """Forwards the chosen channels from one bus to the other."""
 
     def __init__(self, source: mfot_lcm.Lcm, sink: mfot_lcm.Lcm, names: list[str], drop: dict[str, float],
-                 swap: float, hold_s: float, rng: random.Random, counts: dict):
-        self.sink, self.drop, self.swap, self.hold_s, self.rng, self.counts = sink, drop, swap, hold_s, rng, counts
+                 swap: float, hold_s: float, seed: int, counts: dict):
+        self.sink, self.drop, self.swap, self.hold_s, self.counts = sink, drop, swap, hold_s, counts
+        self.rng = {name: random.Random(f"{seed}:{name}") for name in names}
         self.held: dict[str, tuple[float, bytes]] = {}
         for name in names:
             counts.setdefault(name, {"forwarded": 0, "dropped": 0, "swapped": 0})
@@ -57,11 +59,12 @@ class Direction:
 
     def on_message(self, channel: str, data: bytes) -> None:
         count = self.counts[channel]
-        if self.rng.random() < self.drop.get(channel, 0.0):
+        rng = self.rng[channel]
+        if rng.random() < self.drop.get(channel, 0.0):
             count["dropped"] += 1
             return
         held = self.held.pop(channel, None)
-        if held is None and self.rng.random() < self.swap:
+        if held is None and rng.random() < self.swap:
             self.held[channel] = (time.monotonic(), data)
             count["swapped"] += 1
             return
@@ -86,7 +89,7 @@ def main() -> int:
     ap.add_argument("--drop", type=probability, action="append", default=[], help="CHANNEL=P: drop with probability P")
     ap.add_argument("--swap", type=float, default=0.0, help="probability that a message is sent after the next one")
     ap.add_argument("--hold-s", type=float, default=0.3, help="longest a swapped message is held back, seconds")
-    ap.add_argument("--seed", type=int, default=1, help="seed of the relay's own random generator")
+    ap.add_argument("--seed", type=int, default=1, help="seed of the relay's own random generators")
     args = ap.parse_args()
     if not 0.0 <= args.swap <= 1.0:
         ap.error(f"--swap {args.swap}: must be in [0, 1]")
@@ -105,12 +108,11 @@ def main() -> int:
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    rng = random.Random(args.seed)
     drop = dict(args.drop)
     counts: dict[str, dict[str, int]] = {}
     with mfot_lcm.Lcm(args.a, recv_buffer_bytes=64 << 20) as bus_a, mfot_lcm.Lcm(args.b, recv_buffer_bytes=64 << 20) as bus_b:
-        directions = [Direction(bus_a, bus_b, args.a_to_b, drop, args.swap, args.hold_s, rng, counts),
-                      Direction(bus_b, bus_a, args.b_to_a, drop, args.swap, args.hold_s, rng, counts)]
+        directions = [Direction(bus_a, bus_b, args.a_to_b, drop, args.swap, args.hold_s, args.seed, counts),
+                      Direction(bus_b, bus_a, args.b_to_a, drop, args.swap, args.hold_s, args.seed, counts)]
         print("ready", flush=True)
         while not stopping:
             try:
