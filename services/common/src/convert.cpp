@@ -16,6 +16,9 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     return "array sizes disagree with num_points";
   }
   if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
+  // Every cluster has a point, so more clusters than points is corrupt (and the merger sizes
+  // per-cluster tables by the largest index).
+  if (msg.num_clusters < 0 || msg.num_clusters > msg.num_points) return "num_clusters out of range [0, num_points]";
   out.frame_seq = msg.frame_seq;
   out.capture_utime = msg.capture_utime;
   out.cloud.clear();
@@ -75,6 +78,11 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
   model.cloud.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (!finite3(msg.x[i], msg.y[i], msg.z[i])) return "non-finite model point " + std::to_string(i);
+    if (std::abs(msg.x[i]) > kMaxModelRadius || std::abs(msg.y[i]) > kMaxModelRadius ||
+        std::abs(msg.z[i]) > kMaxModelRadius) {
+      return "model point " + std::to_string(i) + " is more than " + std::to_string(kMaxModelRadius) +
+             " m from the object origin";
+    }
     model.cloud.push_back({msg.x[i], msg.y[i], msg.z[i]},
                           {static_cast<std::uint8_t>(msg.r[i]), static_cast<std::uint8_t>(msg.g[i]),
                            static_cast<std::uint8_t>(msg.b[i])});

@@ -28,7 +28,13 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
 std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out);
 void pose_to_arrays(const Pose& pose, double position[3], double orientation[4]);
 
-// The model of an object_model_t (object frame) with SMR features; error text on invalid data.
+// Model points lie within this many metres of the object origin on every axis (object frame): a
+// table-top object, or a hand with its forearm, fits easily, and the tracker's JCSD grid stays
+// bounded (a 3 m cube is 8.2M corners at the default 1.5 cm cell).
+inline constexpr float kMaxModelRadius = 1.5f;
+
+// The model of an object_model_t (object frame) with SMR features; error text on invalid data
+// (including points beyond kMaxModelRadius).
 std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
                                               PoseVector& velocity);
 void model_to_message(const ObjectModel& model, object_model_t& msg);
