@@ -185,6 +185,8 @@ class Merger {
       } else {
         spdlog::warn("worker {} holds object {}, which does not exist; retiring it", msg.worker_id, msg.object_id);
         publish_retirement(msg.object_id, last_finished_seq_);
+        // After a restart of this merger: controllers knew that id as another object.
+        manager_.reserve_ids_through(msg.object_id);
       }
     }
   }

@@ -356,6 +356,9 @@ class ReliabilityTest(unittest.TestCase):
             outages.append((service, last_seq, resumed.frame_seq))
             if service == "merger":
                 self.assertEqual(len(resumed.objects), 3, "the restarted merger finds the three objects again")
+                earlier = {o.id for _, p in bus.snapshot("MFOT_POSES") if p.frame_seq <= last_seq for o in p.objects}
+                self.assertGreater(min(o.id for o in resumed.objects), max(earlier),
+                                   "new ids: controllers knew the old ones as the first merger's objects")
             bus.wait_for(f"poses of frame {next_seq}", poses_with_seq_at_least(next_seq), 60)
         self.assertGroupOk(group, group.wait(120))
         self.assertEqual({n: p for n, p in group.pids().items() if n in others}, others,

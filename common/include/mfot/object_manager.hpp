@@ -11,6 +11,7 @@
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -102,6 +103,9 @@ class ObjectManager {
   const std::map<std::int32_t, ManagedObject>& objects() const { return objects_; }
   const ObjectManagerFrame& last_frame() const { return frame_; }
   std::int64_t frames_processed() const { return frames_; }
+  // Ids up to `id` are in use elsewhere (objects the trackers still hold when a merger restarts):
+  // new objects get larger ones.
+  void reserve_ids_through(std::int32_t id) { next_id_ = std::max(next_id_, id + 1); }
 
  private:
   using ColorHistogram = std::array<float, kSmrBins>;
