@@ -45,15 +45,15 @@ object_model_t model_message(int n) {
   return msg;
 }
 
-TEST(EdgeMessages, ClusterCountBeyondThePointCountIsRefused) {
+TEST(EdgeMessages, ClusterIndexBeyondThePointCountIsRefused) {
   // One point in cluster 2^31 - 2 would have the merger size a table of 2^31 clusters.
   scene_cloud_t msg = scene_message(3);
   msg.num_clusters = std::numeric_limits<std::int32_t>::max();
   msg.cluster[2] = std::numeric_limits<std::int32_t>::max() - 1;
   Scene scene;
-  EXPECT_EQ(scene_from_message(msg, scene), "num_clusters out of range [0, num_points]");
-  msg.num_clusters = -1;
-  EXPECT_EQ(scene_from_message(msg, scene), "num_clusters out of range [0, num_points]");
+  EXPECT_EQ(scene_from_message(msg, scene), "cluster index 2147483646 out of range at point 2");
+  msg.cluster[2] = 3;  // below num_clusters, but 3 points cannot make 4 clusters
+  EXPECT_EQ(scene_from_message(msg, scene), "cluster index 3 out of range at point 2");
   const scene_cloud_t valid = scene_message(3);
   EXPECT_EQ(scene_from_message(valid, scene), std::nullopt);
 }

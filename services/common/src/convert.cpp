@@ -16,9 +16,6 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     return "array sizes disagree with num_points";
   }
   if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
-  // Every cluster has a point, so more clusters than points is corrupt (and the merger sizes
-  // per-cluster tables by the largest index).
-  if (msg.num_clusters < 0 || msg.num_clusters > msg.num_points) return "num_clusters out of range [0, num_points]";
   out.frame_seq = msg.frame_seq;
   out.capture_utime = msg.capture_utime;
   out.cloud.clear();
@@ -26,7 +23,9 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
   out.cluster.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (!finite3(msg.x[i], msg.y[i], msg.z[i])) return "non-finite coordinate at point " + std::to_string(i);
-    if (msg.cluster[i] < -1 || msg.cluster[i] >= msg.num_clusters) {
+    // Every cluster has a point, so an index beyond the point count is corrupt (and the merger
+    // sizes per-cluster tables by the largest index).
+    if (msg.cluster[i] < -1 || msg.cluster[i] >= msg.num_clusters || msg.cluster[i] >= msg.num_points) {
       return "cluster index " + std::to_string(msg.cluster[i]) + " out of range at point " + std::to_string(i);
     }
     out.cloud.push_back({msg.x[i], msg.y[i], msg.z[i]},
