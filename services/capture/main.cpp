@@ -245,7 +245,9 @@ class CaptureService {
       const auto now = Clock::now();
       if (now >= next_report) {
         const double waited_s = std::chrono::duration<double>(now - start).count();
-        if (next_report == start + kStallReport) spdlog::warn("{} stalled: no frame for {:.1f} s", source_name_, waited_s);
+        if (next_report == start + kStallReport) {
+          spdlog::warn("{} stalled: no frame for {:.1f} s", source_name_, waited_s);
+        }
         status_.set_message(fmt::format("source stalled: no frame for {:.1f} s", waited_s));
         status_.publish();
         next_report = now + kStallReport;

@@ -42,8 +42,9 @@ constexpr std::chrono::milliseconds kModelInFlight{200};
 // means the worker never got the scene (a worker heartbeats only between frames). Sending it
 // again is harmless: a worker that has it already skips the repeat.
 constexpr std::chrono::milliseconds kSceneInFlight{50};
-// A scene is sent again at most this many times: a worker that is merely slow skips the repeats;
-// past this the estimate timeout decides.
+// A scene is sent again at most this often and this many times: a worker that is merely slow
+// skips the repeats; past them the estimate timeout decides.
+constexpr std::chrono::milliseconds kSceneResendInterval{200};
 constexpr int kMaxSceneResends = 3;
 // A scene this many frames older than the last one finished starts a new frame sequence (a
 // restarted capture or replay); anything closer is a late or repeated message.
@@ -255,9 +256,8 @@ class Merger {
       if (progress != progress_.end() && progress->second >= seq) continue;  // lost, or skipped
       complete = false;
       const Worker& w = workers_.at(worker_id);
-      if (w.last_frame_seq < seq && w.last_seen > next.sent + kSceneInFlight && now - next.sent > kModelInFlight) {
-        resend = true;
-      }
+      resend = resend || (w.last_frame_seq < seq && w.last_seen > next.sent + kSceneInFlight &&
+                          now - next.sent > kSceneResendInterval);
     }
     if (!complete && resend && next.resends < kMaxSceneResends) {
       spdlog::info("a worker did not get the scene of frame {}; sending it again", seq);
