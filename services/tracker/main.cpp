@@ -96,6 +96,14 @@ class TrackerWorker {
       status_.malformed().record(chan, "invalid model", "empty model assigned");
       return;
     }
+    // A model the likelihood cannot take (e.g. a JCSD grid beyond its corner limit at a tiny
+    // cell_size) is refused like any invalid model instead of stopping the worker.
+    try {
+      choice_.likelihood->set_model(model);
+    } catch (const std::exception& e) {
+      status_.malformed().record(chan, "invalid model", e.what());
+      return;
+    }
     if (object_id_ != msg.object_id || !filter_) {
       object_id_ = msg.object_id;
       ParticleFilterOptions options = config_.filter;
@@ -109,7 +117,6 @@ class TrackerWorker {
     }
     model_version_ = msg.version;
     model_box_ = model_bounding_box(model);
-    choice_.likelihood->set_model(model);
     model_ = std::move(model);
   }
 
