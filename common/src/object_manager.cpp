@@ -102,10 +102,11 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_, object.version, color_histogram(object.model)};
+      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id)};
     }
     objects_.erase(id);
     updaters_.erase(id);
+    first_seen_.erase(id);
   }
   std::erase_if(retired_, [&](const auto& entry) {
     return frames_ - entry.second.retired_frame >= options_.reidentify_frames;
@@ -189,23 +190,63 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
   }
 }
 
+namespace {
+
+// Indices of a spatially even subset of at most max_points of the points: the first point (in
+// input order) of every cell of a cubic lattice whose cell grows by 25 % from 2 mm until few
+// enough cells are occupied. Earlier points win their cells, so an existing model keeps its
+// points where the gained ones add nothing.
+std::vector<std::size_t> even_subset(std::span<const Eigen::Vector3f> points, std::size_t max_points) {
+  std::vector<std::size_t> chosen(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) chosen[i] = i;
+  if (points.size() <= max_points) return chosen;
+  std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> cells(points.size());
+  for (float cell = 0.002f;; cell *= 1.25f) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3f c = (points[i] / cell).array().floor();
+      cells[i] = {{static_cast<std::int64_t>(c.x()), static_cast<std::int64_t>(c.y()), static_cast<std::int64_t>(c.z())}, i};
+    }
+    std::sort(cells.begin(), cells.end());  // by cell, then by input order
+    chosen.clear();
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      if (k == 0 || cells[k].first != cells[k - 1].first) chosen.push_back(cells[k].second);
+    }
+    if (chosen.size() <= max_points) break;
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+}  // namespace
+
 void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained) {
   const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
-  const std::size_t room = options_.max_model_points > object.model.cloud.size()
-                               ? options_.max_model_points - object.model.cloud.size()
-                               : 0;
-  const std::size_t take = std::min(room, gained.size());
-  if (take == 0) return;
+  ObjectModel grown = object.model;
   std::vector<Rgb8> added_colors;
-  added_colors.reserve(take);
-  // Deterministic even subsampling of the gained points into the room left in the model.
-  for (std::size_t k = 0; k < take; ++k) {
-    const auto i = static_cast<std::size_t>(gained[k * gained.size() / take]);
-    object.model.cloud.push_back(camera_to_object * scene.positions[i], scene.colors[i]);
+  added_colors.reserve(gained.size());
+  for (const int g : gained) {
+    const auto i = static_cast<std::size_t>(g);
+    grown.cloud.push_back(camera_to_object * scene.positions[i], scene.colors[i]);
     added_colors.push_back(scene.colors[i]);
   }
   const auto features = compute_smr(added_colors, options_.smr);
-  object.model.features.insert(object.model.features.end(), features.begin(), features.end());
+  grown.features.insert(grown.features.end(), features.begin(), features.end());
+  // Over the size limit the model thins out evenly instead of refusing the new part: an arm
+  // reaching further in stays covered, so tau keeps segmenting it where the clustering splits
+  // it from the hand (grazing views of an arm pointing at the camera).
+  const std::vector<std::size_t> keep = even_subset(grown.cloud.positions, options_.max_model_points);
+  if (keep.size() == grown.cloud.size()) {
+    object.model = std::move(grown);
+  } else {
+    object.model.cloud.clear();
+    object.model.features.clear();
+    object.model.cloud.reserve(keep.size());
+    object.model.features.reserve(keep.size());
+    for (const std::size_t k : keep) {
+      object.model.cloud.push_back(grown.cloud.positions[k], grown.cloud.colors[k]);
+      object.model.features.push_back(grown.features[k]);
+    }
+  }
   ++object.version;
 }
 
@@ -228,8 +269,14 @@ std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram) const {
   std::int32_t best = 0;
   float best_similarity = options_.reidentify_similarity;
   for (const auto& [id, retired] : retired_) {  // ascending ids: ties keep the oldest
-    float similarity = 0.f;
-    for (int b = 0; b < kSmrBins; ++b) similarity += std::sqrt(histogram[b] * retired.histogram[b]);
+    // An object grown while entering (a hand and its arm) may come back showing only what it
+    // showed first: either view may match.
+    float last = 0.f, first = 0.f;
+    for (int b = 0; b < kSmrBins; ++b) {
+      last += std::sqrt(histogram[b] * retired.histogram[b]);
+      first += std::sqrt(histogram[b] * retired.first_seen[b]);
+    }
+    const float similarity = std::max(last, first);
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
       best_similarity = similarity;
@@ -259,7 +306,8 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
     object.model.cloud.push_back(scene.positions[i] - centroid, scene.colors[i]);
   }
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
-  const std::int32_t known = frames_ > 0 ? reidentify(color_histogram(object.model)) : 0;
+  const ColorHistogram histogram = color_histogram(object.model);
+  const std::int32_t known = frames_ > 0 ? reidentify(histogram) : 0;
   if (known != 0) {
     object.id = known;
     object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
@@ -275,6 +323,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   ModelUpdateOptions update = options_.model_update;
   update.seed = options_.model_update.seed + static_cast<std::uint64_t>(object.id);
   updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
+  first_seen_[object.id] = histogram;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
 }

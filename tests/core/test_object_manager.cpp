@@ -123,6 +123,33 @@ TEST(ObjectManager, AnObjectComingBackTakesItsIdBackAndADifferentOneDoesNot) {
   EXPECT_EQ(forgetful.process(back, back_cluster, unchanged(forgetful)).created, (std::vector<std::int32_t>{3}));
 }
 
+TEST(ObjectManager, AGrownObjectReachingInAgainIsKnownByItsFirstView) {
+  // A red hand reaches in, then mostly its blue arm is seen: the last model is mostly blue. When it
+  // leaves and the red hand reaches in again, its first view still matches.
+  auto paint = [](ColoredCloud& cloud, std::size_t from, Rgb8 color) {
+    for (std::size_t i = from; i < cloud.size(); ++i) cloud.colors[i] = color;
+  };
+  ColoredCloud hand;
+  std::vector<std::int32_t> hand_cluster;
+  add_block(hand, hand_cluster, 0, {0.f, 0.f, 1.f}, {10, 10, 1});
+  paint(hand, 0, {200, 30, 35});
+  ColoredCloud arm = hand;
+  std::vector<std::int32_t> arm_cluster = hand_cluster;
+  add_block(arm, arm_cluster, 0, {0.05f, 0.f, 1.f}, {60, 10, 1});
+  paint(arm, hand.size(), {35, 70, 200});
+  ObjectManagerOptions options;
+  options.support.max_frames = 2;
+  options.new_objects.confirm_frames = 1;
+  ObjectManager manager(options);
+  manager.process(hand, hand_cluster, {});
+  manager.process(arm, arm_cluster, unchanged(manager));
+  ASSERT_EQ(manager.objects().size(), 1u);
+  ASSERT_GT(manager.objects().at(1).model.cloud.size(), hand.size() * 3);
+  for (int t = 0; t < 2; ++t) manager.process(ColoredCloud{}, {}, unchanged(manager));
+  ASSERT_TRUE(manager.objects().empty());
+  EXPECT_EQ(manager.process(hand, hand_cluster, {}).created, (std::vector<std::int32_t>{1}));
+}
+
 TEST(ObjectManager, ANewClusterBecomesAnObjectAfterPersisting) {
   TwoBlocks scene;
   ObjectManagerOptions options;
@@ -169,6 +196,38 @@ TEST(ObjectManager, AYoungObjectGrowsByPointsConnectedOnlyToIt) {
   strict.process(tip, tip_cluster, {});
   strict.process(cloud, cluster, unchanged(strict));
   EXPECT_EQ(strict.objects().size(), 2u);
+}
+
+TEST(ObjectManager, AFullModelThinsOutEvenlyToTakeInANewPart) {
+  // A flat tip fills the model; the arm then reaching 25 cm further must still be covered by it,
+  // so that tau segments the arm even where the clustering splits it off.
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {0.f, 0.f, 1.f}, {10, 10, 1});
+  ObjectManagerOptions options;
+  options.max_model_points = 100;
+  ObjectManager manager(options);
+  manager.process(cloud, cluster, {});
+  ASSERT_EQ(manager.objects().at(1).model.cloud.size(), 100u);
+  add_block(cloud, cluster, 0, {0.05f, 0.f, 1.f}, {50, 10, 1});
+  manager.process(cloud, cluster, unchanged(manager));
+  const ManagedObject& arm = manager.objects().at(1);
+  ASSERT_LE(arm.model.cloud.size(), 100u);
+  ASSERT_EQ(arm.model.features.size(), arm.model.cloud.size());
+  const Eigen::Isometry3f to_camera = arm.pose.isometry();
+  float far_x = -1.f, near_x = 1.f;
+  for (const Eigen::Vector3f& p : arm.model.cloud.positions) {
+    far_x = std::max(far_x, (to_camera * p).x());
+    near_x = std::min(near_x, (to_camera * p).x());
+  }
+  EXPECT_GT(far_x, 0.05f + 0.005f * 49 - 0.015f);  // the arm's end
+  EXPECT_LT(near_x, 0.01f);                        // the tip is kept
+
+  // Without clusters (no propagation) tau alone segments nearly all of the arm.
+  const auto& frame = manager.process(cloud, std::vector<std::int32_t>(cloud.size(), -1), unchanged(manager));
+  std::size_t labelled = 0;
+  for (const std::int32_t label : frame.labels) labelled += label == 1 ? 1 : 0;
+  EXPECT_GT(labelled, cloud.size() * 9 / 10);
 }
 
 TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo) {

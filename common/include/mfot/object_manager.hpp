@@ -29,7 +29,8 @@ struct ObjectManagerOptions {
   SupportLossOptions support;           // when an object without support is retired
   SmrOptions smr;                       // colour feature of model points
   std::size_t min_object_points = 50;   // >= 1: smaller clusters never become objects
-  std::size_t max_model_points = 1500;  // >= min_object_points: a new model is subsampled to this size
+  std::size_t max_model_points = 1500;  // >= min_object_points: a new model is subsampled to this
+                                        // size, a growing one thins out evenly to stay within it
   // Unexplained points of a cluster that also holds segmented points take the label of the
   // nearest segmented point reachable through unexplained points in steps of at most this
   // (metres; the preprocess cluster tolerance): the rest of an arm entering the view, what tau
@@ -40,7 +41,7 @@ struct ObjectManagerOptions {
   // at a time. 0 disables growth.
   int growth_frames = 300;
   // A retired object is remembered this many frames (0: never): a new object whose colour
-  // distribution matches a remembered one's takes its id back (a hand leaving the view and
+  // distribution matches a remembered one's (its last model's or its first, partial view's) takes its id back (a hand leaving the view and
   // reaching in again, an object lost and found again), so ids stay stable for controllers.
   int reidentify_frames = 900;
   // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
@@ -79,7 +80,8 @@ struct ObjectManagerFrame {
 //   4. retire objects whose support stayed below the minimum for several frames;
 //   5. unexplained points of clusters that hold segmented points take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
-//      their models by the points they gain;
+//      their models by the points they gain (thinned evenly over the whole model when it
+//      would exceed max_model_points);
 //   6. create objects from clusters that no object explains: at the first frame every cluster,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
 //      model is the cluster in a frame at its centroid, axis-aligned with the camera. A new
@@ -112,7 +114,8 @@ class ObjectManager {
   struct RetiredObject {
     std::int64_t retired_frame = 0;
     std::int32_t version = 0;
-    ColorHistogram histogram{};
+    ColorHistogram histogram{};    // of its last model
+    ColorHistogram first_seen{};   // of its model when created: what reaching in again shows first
   };
   static ColorHistogram color_histogram(const ObjectModel& model);
   // The remembered id the histogram matches best, or 0.
@@ -130,6 +133,7 @@ class ObjectManager {
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
   std::map<std::int32_t, RetiredObject> retired_;
+  std::map<std::int32_t, ColorHistogram> first_seen_;  // per live object
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
   ObjectManagerFrame frame_;
