@@ -26,7 +26,8 @@ struct JcsdLikelihoodOptions {
 //     corner one contiguous 32-byte load, and accumulate h times them per bin; after the last
 //     point the bins are added up. Since h . (sum_s w_s J(:, s)) = sum_s w_s (h . J(:, s)), this is
 //     3.19 summed over points (3.20), without gathers. Points whose cell is not inside the grid
-//     score 0.
+//     score 0. (The CUDA evaluator correlates at each corner first: the same sum, rounded
+//     differently.)
 // Particles are split into contiguous blocks across `threads` (a pool owned by this object); each
 // score is computed by one thread with the same arithmetic, so results do not depend on the
 // thread count. No allocation per particle; buffers grow only when the hypothesis data grows.
