@@ -100,8 +100,9 @@ int main(int argc, char** argv) {
 #endif
   std::printf("JCSD CPU evaluation (%s), %zu hypothesis points, model %zu points, grid %dx%dx%d\n", path, kPoints,
               model.cloud.size(), single.grid().dims[0], single.grid().dims[1], single.grid().dims[2]);
-  std::printf("us per particle: min / median over %d batches of >= 20 ms\n", kBatches);
-  std::printf("%9s | %15s %8s | %15s | %12s\n", "particles", "1 thread us", "ns/point", "pool us", "p2p us");
+  std::printf("us per particle (min and median over %d batches of >= 20 ms); ns per point from the min\n", kBatches);
+  std::printf("%9s | %-24s | %-15s | %s\n", "", "one thread", "pool", "point-to-point");
+  std::printf("%9s | %7s %7s %8s | %7s %7s | %7s\n", "particles", "min", "median", "ns/point", "min", "median", "min");
   std::normal_distribution<float> noise(0.f, 1.f);
   for (const std::size_t n : {10u, 100u, 200u, 500u, 1000u, 2000u, 5000u}) {
     std::vector<mfot::Pose> particles(n);
@@ -118,9 +119,9 @@ int main(int argc, char** argv) {
                 t1.min * per_particle * 1e3 / kPoints, tp.min * per_particle, tp.median * per_particle);
     if (n <= 500) {
       const Timing tb = seconds_per_call(p2p, particles, data, scores);
-      std::printf(" %12.2f\n", tb.min * per_particle);
+      std::printf(" %7.2f\n", tb.min * per_particle);
     } else {
-      std::printf(" %12s\n", "-");
+      std::printf(" %7s\n", "-");
     }
   }
   std::printf("pool: %d threads\n", threads);
