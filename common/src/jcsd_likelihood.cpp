@@ -1,7 +1,8 @@
 // JCSD hypothesis evaluation on the CPU, thesis 3.3, equations 3.18 to 3.20 (see the header for
-// the steps). The per-point loop runs over structure-of-arrays buffers, eight points at a time:
-// with AVX2 + FMA (the build uses -march=native) as explicit gathers, otherwise as a portable
-// scalar loop with the same summation order (lane j % 8, then a fixed pairwise sum).
+// the steps). Per particle the points are taken in batches: first mapped to their cells (with
+// AVX2 + FMA, eight points at a time; the build uses -march=native), then interpolated one point
+// at a time as 8-lane vectors over the colour bins. Without AVX2 a portable loop does the same
+// arithmetic in the same order (the same sums, rounded without fused multiply-adds).
 
 #include "mfot/jcsd_likelihood.hpp"
 
@@ -22,7 +23,10 @@
 namespace mfot {
 namespace {
 
-constexpr std::size_t kLanes = 8;  // padding and summation width of the per-point loop
+constexpr std::size_t kLanes = 8;    // points mapped at once; the point count is padded to a multiple
+constexpr std::size_t kBatch = 64;   // points mapped before they are interpolated (a multiple of kLanes)
+constexpr std::size_t kSums = 2;     // interleaved per-bin sums: point j goes to sum j % 2 (even, odd)
+static_assert(kBatch % kLanes == 0 && kLanes % kSums == 0);
 
 void validate(const JcsdLikelihoodOptions& options) {
   validate(options.grid);
@@ -115,6 +119,7 @@ JcsdLikelihood::~JcsdLikelihood() = default;
 
 void JcsdLikelihood::set_model(const ObjectModel& model) {
   grid_ = build_jcsd_grid(model, options_.grid);
+  copy_corners();
 }
 
 void JcsdLikelihood::set_grid(JcsdGrid grid) {
@@ -125,6 +130,20 @@ void JcsdLikelihood::set_grid(JcsdGrid grid) {
     throw std::invalid_argument("JcsdLikelihood::set_grid: every dimension needs >= 2 corners");
   }
   grid_ = std::move(grid);
+  copy_corners();
+}
+
+void JcsdLikelihood::copy_corners() {
+  const std::size_t corners = grid_.num_corners();
+  if (grid_.empty()) {
+    corners_.clear();
+    return;
+  }
+  // A point outside the grid reads corners outside_corner_ + {0, 1} + {0, dims[0]} + {0, dims[0] * dims[1]}.
+  const std::size_t tail = static_cast<std::size_t>(grid_.dims[0]) * (grid_.dims[1] + 1) + 2;
+  corners_.assign(corners + tail, Bins{});
+  for (std::size_t s = 0; s < corners; ++s) std::copy_n(grid_.values.data() + s * kSmrBins, kSmrBins, corners_[s].values);
+  outside_corner_ = static_cast<std::int32_t>(corners);
 }
 
 void JcsdLikelihood::evaluate(std::span<const Pose> particles, const HypothesisData& data,
@@ -142,25 +161,19 @@ void JcsdLikelihood::evaluate(std::span<const Pose> particles, const HypothesisD
   }
 
   padded_points_ = (n + kLanes - 1) / kLanes * kLanes;
-  for (auto* v : {&x_, &y_, &z_, &weight_lo_, &weight_hi_, &weight_gray_}) v->resize(padded_points_);
-  for (auto* v : {&offset_lo_, &offset_hi_, &offset_gray_}) v->resize(padded_points_);
+  for (auto* v : {&x_, &y_, &z_}) v->resize(padded_points_);
+  smr_.resize(padded_points_);
   for (std::size_t j = 0; j < padded_points_; ++j) {
     if (j < n) {
       const Eigen::Vector3f& p = data.points[j];
-      const SmrFeature& h = data.features[j];
       x_[j] = p.x();
       y_[j] = p.y();
       z_[j] = p.z();
-      offset_lo_[j] = h.hue_bin;
-      offset_hi_[j] = (h.hue_bin + 1) % 6;
-      offset_gray_[j] = h.gray_bin;
-      weight_lo_[j] = h.hue_weight_lo;
-      weight_hi_[j] = h.hue_weight_hi;
-      weight_gray_[j] = h.gray_weight;
+      const std::array<float, kSmrBins> h = data.features[j].dense();
+      std::copy(h.begin(), h.end(), smr_[j].values);
     } else {
       x_[j] = y_[j] = z_[j] = 0.f;
-      offset_lo_[j] = offset_hi_[j] = offset_gray_[j] = 0;
-      weight_lo_[j] = weight_hi_[j] = weight_gray_[j] = 0.f;
+      smr_[j] = Bins{};
     }
   }
   if (pool_ && particles.size() > 1) {
@@ -182,22 +195,19 @@ float JcsdLikelihood::score_particle(const Pose& particle) const {
   const float max_x = static_cast<float>(grid_.dims[0] - 2);
   const float max_y = static_cast<float>(grid_.dims[1] - 2);
   const float max_z = static_cast<float>(grid_.dims[2] - 2);
-  const std::int32_t sx = static_cast<std::int32_t>(kSmrBins);
-  const std::int32_t sy = sx * grid_.dims[0];
+  const std::int32_t sy = grid_.dims[0];  // corner strides
   const std::int32_t sz = sy * grid_.dims[1];
 
-  const float* J = grid_.values.data();
+  const Bins* J = corners_.data();
   const float* px = x_.data();
   const float* py = y_.data();
   const float* pz = z_.data();
-  const std::int32_t* ol = offset_lo_.data();
-  const std::int32_t* oh = offset_hi_.data();
-  const std::int32_t* og = offset_gray_.data();
-  const float* wl = weight_lo_.data();
-  const float* wh = weight_hi_.data();
-  const float* wg = weight_gray_.data();
   const std::size_t n = padded_points_;
-  std::array<float, kLanes> lanes{};
+  // One batch: each point's cell (its corner of lowest x, y, z; outside_corner_ for points outside
+  // the grid) and its position inside the cell (0 outside the grid).
+  alignas(32) std::array<std::int32_t, kBatch> cell;
+  alignas(32) std::array<float, kBatch> tx, ty, tz;
+  std::array<float, kSmrBins> bins{};
 
 #if defined(MFOT_JCSD_AVX2)
   const __m256 a00 = _mm256_set1_ps(a(0, 0)), a01 = _mm256_set1_ps(a(0, 1)), a02 = _mm256_set1_ps(a(0, 2));
@@ -207,85 +217,96 @@ float JcsdLikelihood::score_particle(const Pose& particle) const {
   const __m256 zero = _mm256_setzero_ps();
   const __m256 vmax_x = _mm256_set1_ps(max_x), vmax_y = _mm256_set1_ps(max_y), vmax_z = _mm256_set1_ps(max_z);
   const __m256i vsy = _mm256_set1_epi32(sy), vsz = _mm256_set1_epi32(sz);
-  __m256 acc = zero;
-  for (std::size_t j = 0; j < n; j += kLanes) {
-    const __m256 x = _mm256_loadu_ps(px + j);
-    const __m256 y = _mm256_loadu_ps(py + j);
-    const __m256 z = _mm256_loadu_ps(pz + j);
-    const __m256 ux = _mm256_fmadd_ps(a00, x, _mm256_fmadd_ps(a01, y, _mm256_fmadd_ps(a02, z, c0)));
-    const __m256 uy = _mm256_fmadd_ps(a10, x, _mm256_fmadd_ps(a11, y, _mm256_fmadd_ps(a12, z, c1)));
-    const __m256 uz = _mm256_fmadd_ps(a20, x, _mm256_fmadd_ps(a21, y, _mm256_fmadd_ps(a22, z, c2)));
-    const __m256 fx = _mm256_floor_ps(ux);
-    const __m256 fy = _mm256_floor_ps(uy);
-    const __m256 fz = _mm256_floor_ps(uz);
-    __m256 inside = _mm256_and_ps(_mm256_cmp_ps(fx, zero, _CMP_GE_OQ), _mm256_cmp_ps(fx, vmax_x, _CMP_LE_OQ));
-    inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fy, zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, vmax_y, _CMP_LE_OQ)));
-    inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fz, zero, _CMP_GE_OQ), _mm256_cmp_ps(fz, vmax_z, _CMP_LE_OQ)));
-    // Clamped so every gather stays inside the grid (max_ps returns 0 for NaN); outside points
-    // are masked to 0 below.
-    const __m256i ix = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(fx, zero), vmax_x));
-    const __m256i iy = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(fy, zero), vmax_y));
-    const __m256i iz = _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(fz, zero), vmax_z));
-    const __m256i base = _mm256_add_epi32(
-        _mm256_slli_epi32(ix, 3), _mm256_add_epi32(_mm256_mullo_epi32(iy, vsy), _mm256_mullo_epi32(iz, vsz)));
-    const __m256i lo = _mm256_add_epi32(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ol + j)));
-    const __m256i hi = _mm256_add_epi32(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(oh + j)));
-    const __m256i gr = _mm256_add_epi32(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(og + j)));
-    const __m256 w0 = _mm256_loadu_ps(wl + j);
-    const __m256 w1 = _mm256_loadu_ps(wh + j);
-    const __m256 w2 = _mm256_loadu_ps(wg + j);
-    // 3.19 at one corner: h . J(:, corner), using only the three non-zero bins of h.
-    const auto corner = [&](std::int32_t offset) {
-      const __m256i o = _mm256_set1_epi32(offset);
-      __m256 v = _mm256_mul_ps(w0, _mm256_i32gather_ps(J, _mm256_add_epi32(lo, o), 4));
-      v = _mm256_fmadd_ps(w1, _mm256_i32gather_ps(J, _mm256_add_epi32(hi, o), 4), v);
-      return _mm256_fmadd_ps(w2, _mm256_i32gather_ps(J, _mm256_add_epi32(gr, o), 4), v);
+  const __m256i voutside = _mm256_set1_epi32(outside_corner_);
+  const auto lerp = [](__m256 from, __m256 to, __m256 t) { return _mm256_fmadd_ps(t, _mm256_sub_ps(to, from), from); };
+  __m256 sum_even = zero, sum_odd = zero;
+  for (std::size_t begin = 0; begin < n; begin += kBatch) {
+    const std::size_t count = std::min(kBatch, n - begin);
+    for (std::size_t k = 0; k < count; k += kLanes) {
+      const std::size_t j = begin + k;
+      const __m256 x = _mm256_loadu_ps(px + j);
+      const __m256 y = _mm256_loadu_ps(py + j);
+      const __m256 z = _mm256_loadu_ps(pz + j);
+      const __m256 ux = _mm256_fmadd_ps(a00, x, _mm256_fmadd_ps(a01, y, _mm256_fmadd_ps(a02, z, c0)));
+      const __m256 uy = _mm256_fmadd_ps(a10, x, _mm256_fmadd_ps(a11, y, _mm256_fmadd_ps(a12, z, c1)));
+      const __m256 uz = _mm256_fmadd_ps(a20, x, _mm256_fmadd_ps(a21, y, _mm256_fmadd_ps(a22, z, c2)));
+      const __m256 fx = _mm256_floor_ps(ux);
+      const __m256 fy = _mm256_floor_ps(uy);
+      const __m256 fz = _mm256_floor_ps(uz);
+      // False for NaN too.
+      __m256 inside = _mm256_and_ps(_mm256_cmp_ps(fx, zero, _CMP_GE_OQ), _mm256_cmp_ps(fx, vmax_x, _CMP_LE_OQ));
+      inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fy, zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, vmax_y, _CMP_LE_OQ)));
+      inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fz, zero, _CMP_GE_OQ), _mm256_cmp_ps(fz, vmax_z, _CMP_LE_OQ)));
+      const __m256i base = _mm256_add_epi32(
+          _mm256_cvttps_epi32(fx),
+          _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fy), vsy), _mm256_mullo_epi32(_mm256_cvttps_epi32(fz), vsz)));
+      _mm256_store_si256(reinterpret_cast<__m256i*>(cell.data() + k),
+                         _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(voutside), _mm256_castsi256_ps(base), inside)));
+      _mm256_store_ps(tx.data() + k, _mm256_and_ps(_mm256_sub_ps(ux, fx), inside));
+      _mm256_store_ps(ty.data() + k, _mm256_and_ps(_mm256_sub_ps(uy, fy), inside));
+      _mm256_store_ps(tz.data() + k, _mm256_and_ps(_mm256_sub_ps(uz, fz), inside));
+    }
+    // 3.18 for all 8 bins of point k as nested linear interpolation along x, then y, then z.
+    const auto density = [&](std::size_t k) {
+      const Bins* s = J + cell[k];
+      const auto corner = [&](std::int32_t offset) { return _mm256_load_ps(s[offset].values); };
+      const __m256 wx = _mm256_broadcast_ss(&tx[k]);
+      const __m256 wy = _mm256_broadcast_ss(&ty[k]);
+      const __m256 wz = _mm256_broadcast_ss(&tz[k]);
+      const __m256 e00 = lerp(corner(0), corner(1), wx);
+      const __m256 e10 = lerp(corner(sy), corner(sy + 1), wx);
+      const __m256 e01 = lerp(corner(sz), corner(sz + 1), wx);
+      const __m256 e11 = lerp(corner(sy + sz), corner(sy + sz + 1), wx);
+      return lerp(lerp(e00, e10, wy), lerp(e01, e11, wy), wz);
     };
-    const __m256 tx = _mm256_sub_ps(ux, fx);
-    const __m256 ty = _mm256_sub_ps(uy, fy);
-    const __m256 tz = _mm256_sub_ps(uz, fz);
-    const auto lerp = [](__m256 from, __m256 to, __m256 t) {
-      return _mm256_fmadd_ps(t, _mm256_sub_ps(to, from), from);
-    };
-    // 3.18 as nested linear interpolation along x, then y, then z.
-    const __m256 e00 = lerp(corner(0), corner(sx), tx);
-    const __m256 e10 = lerp(corner(sy), corner(sx + sy), tx);
-    const __m256 e01 = lerp(corner(sz), corner(sx + sz), tx);
-    const __m256 e11 = lerp(corner(sy + sz), corner(sx + sy + sz), tx);
-    const __m256 score = lerp(lerp(e00, e10, ty), lerp(e01, e11, ty), tz);
-    acc = _mm256_add_ps(acc, _mm256_and_ps(score, inside));
+    for (std::size_t k = 0; k < count; k += kSums) {  // 3.19, h times the densities
+      sum_even = _mm256_fmadd_ps(_mm256_load_ps(smr_[begin + k].values), density(k), sum_even);
+      sum_odd = _mm256_fmadd_ps(_mm256_load_ps(smr_[begin + k + 1].values), density(k + 1), sum_odd);
+    }
   }
-  _mm256_storeu_ps(lanes.data(), acc);
+  _mm256_storeu_ps(bins.data(), _mm256_add_ps(sum_even, sum_odd));
 #else
-  for (std::size_t j = 0; j < n; ++j) {
-    const float ux = a(0, 0) * px[j] + a(0, 1) * py[j] + a(0, 2) * pz[j] + c.x();
-    const float uy = a(1, 0) * px[j] + a(1, 1) * py[j] + a(1, 2) * pz[j] + c.y();
-    const float uz = a(2, 0) * px[j] + a(2, 1) * py[j] + a(2, 2) * pz[j] + c.z();
-    const float fx = std::floor(ux);
-    const float fy = std::floor(uy);
-    const float fz = std::floor(uz);
-    if (!(fx >= 0.f && fx <= max_x && fy >= 0.f && fy <= max_y && fz >= 0.f && fz <= max_z)) continue;
-    const std::int32_t base = static_cast<std::int32_t>(fx) * sx + static_cast<std::int32_t>(fy) * sy +
-                              static_cast<std::int32_t>(fz) * sz;
-    const std::int32_t lo = base + ol[j];
-    const std::int32_t hi = base + oh[j];
-    const std::int32_t gr = base + og[j];
-    const auto corner = [&](std::int32_t offset) {
-      return wl[j] * J[lo + offset] + wh[j] * J[hi + offset] + wg[j] * J[gr + offset];
-    };
-    const auto lerp = [](float from, float to, float t) { return from + t * (to - from); };
-    const float tx = ux - fx;
-    const float ty = uy - fy;
-    const float tz = uz - fz;
-    const float e00 = lerp(corner(0), corner(sx), tx);
-    const float e10 = lerp(corner(sy), corner(sx + sy), tx);
-    const float e01 = lerp(corner(sz), corner(sx + sz), tx);
-    const float e11 = lerp(corner(sy + sz), corner(sx + sy + sz), tx);
-    lanes[j % kLanes] += lerp(lerp(e00, e10, ty), lerp(e01, e11, ty), tz);
+  const auto lerp = [](float from, float to, float t) { return from + t * (to - from); };
+  std::array<std::array<float, kSmrBins>, kSums> sums{};
+  for (std::size_t begin = 0; begin < n; begin += kBatch) {
+    const std::size_t count = std::min(kBatch, n - begin);
+    for (std::size_t k = 0; k < count; ++k) {
+      const std::size_t j = begin + k;
+      const float ux = a(0, 0) * px[j] + (a(0, 1) * py[j] + (a(0, 2) * pz[j] + c.x()));
+      const float uy = a(1, 0) * px[j] + (a(1, 1) * py[j] + (a(1, 2) * pz[j] + c.y()));
+      const float uz = a(2, 0) * px[j] + (a(2, 1) * py[j] + (a(2, 2) * pz[j] + c.z()));
+      const float fx = std::floor(ux);
+      const float fy = std::floor(uy);
+      const float fz = std::floor(uz);
+      if (fx >= 0.f && fx <= max_x && fy >= 0.f && fy <= max_y && fz >= 0.f && fz <= max_z) {
+        cell[k] = static_cast<std::int32_t>(fx) + static_cast<std::int32_t>(fy) * sy + static_cast<std::int32_t>(fz) * sz;
+        tx[k] = ux - fx;
+        ty[k] = uy - fy;
+        tz[k] = uz - fz;
+      } else {
+        cell[k] = outside_corner_;
+        tx[k] = ty[k] = tz[k] = 0.f;
+      }
+    }
+    for (std::size_t k = 0; k < count; ++k) {
+      const Bins* s = J + cell[k];
+      const float* h = smr_[begin + k].values;
+      std::array<float, kSmrBins>& sum = sums[k % kSums];
+      for (int b = 0; b < kSmrBins; ++b) {
+        const auto corner = [&](std::int32_t offset) { return s[offset].values[b]; };
+        const float e00 = lerp(corner(0), corner(1), tx[k]);
+        const float e10 = lerp(corner(sy), corner(sy + 1), tx[k]);
+        const float e01 = lerp(corner(sz), corner(sz + 1), tx[k]);
+        const float e11 = lerp(corner(sy + sz), corner(sy + sz + 1), tx[k]);
+        const float density = lerp(lerp(e00, e10, ty[k]), lerp(e01, e11, ty[k]), tz[k]);
+        sum[b] += h[b] * density;
+      }
+    }
   }
+  for (int b = 0; b < kSmrBins; ++b) bins[b] = sums[0][b] + sums[1][b];
 #endif
   // 3.20 with a fixed summation order, independent of the thread count.
-  return ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
+  return ((bins[0] + bins[1]) + (bins[2] + bins[3])) + ((bins[4] + bins[5]) + (bins[6] + bins[7]));
 }
 
 }  // namespace mfot

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -143,6 +144,59 @@ TEST(JcsdLikelihood, PointsOutsideTheGridScoreZero) {
   EXPECT_EQ(scores[0], 0.f);
   likelihood.evaluate(poses, HypothesisData{}, scores);
   EXPECT_EQ(scores[1], 0.f);
+}
+
+TEST(JcsdLikelihood, MatchesTheReferenceAtTheGridFacesAndForNonFinitePoints) {
+  // Every bin of J is a positive linear function of the corner, so interpolation is exact. The cell
+  // size and origin are powers of two: the evaluator and the reference map points to the same grid
+  // units, and points in the last cell of each axis (which read the grid's last corners), on the
+  // far faces (outside), below the origin, huge or not finite are placed exactly.
+  JcsdGrid grid;
+  grid.origin = Eigen::Vector3f(0.25f, -0.5f, 1.f);
+  grid.cell_size = 0.5f;
+  grid.dims = {5, 4, 6};
+  grid.values.resize(grid.num_corners() * kSmrBins);
+  for (int z = 0; z < grid.dims[2]; ++z)
+    for (int y = 0; y < grid.dims[1]; ++y)
+      for (int x = 0; x < grid.dims[0]; ++x)
+        for (int c = 0; c < kSmrBins; ++c)
+          grid.values[((static_cast<std::size_t>(z) * grid.dims[1] + y) * grid.dims[0] + x) * kSmrBins + c] =
+              7.f + static_cast<float>(c) + 2.f * x + 3.f * y - 1.f * z;
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<Eigen::Vector3f> units{
+      {1.25f, 1.5f, 2.75f}, {3.75f, 2.5f, 4.5f}, {3.999f, 0.5f, 0.5f}, {0.f, 0.f, 0.f},   // inside
+      {4.f, 1.f, 1.f},      {1.f, 3.f, 1.f},     {1.f, 1.f, 5.5f},      {-0.25f, 1.f, 1.f},  // outside
+      {1e30f, 1.f, 1.f},    {inf, 1.f, 1.f},     {1.f, -inf, 1.f},      {1.f, 1.f, nan}};
+  // Hues in every bin, including 345 degrees (bin 6 of 6, whose upper neighbour is bin 1), dark and light.
+  const std::vector<Rgb8> colours{{255, 0, 0},   {255, 0, 64},   {0, 255, 0},   {0, 0, 255},
+                                  {40, 40, 40},  {255, 255, 255}, {200, 150, 50}, {20, 60, 200},
+                                  {0, 200, 200}, {180, 0, 255},   {90, 30, 10},   {128, 128, 128}};
+  HypothesisData all;
+  for (std::size_t k = 0; k < units.size(); ++k) {
+    all.points.push_back(grid.origin + grid.cell_size * units[k]);
+    all.colors.push_back(colours[k]);
+  }
+  all.features = compute_smr(all.colors);
+
+  JcsdLikelihood likelihood;
+  likelihood.set_grid(grid);
+  const std::vector<Pose> identity(1);
+  std::vector<float> score(1);
+  double total = 0.0;
+  for (std::size_t k = 0; k < units.size(); ++k) {
+    const float reference = jcsd_point_score(grid, all.points[k], all.features[k]);
+    EXPECT_EQ(reference > 0.f, k < 4) << "point " << k;
+    HypothesisData one;
+    one.points = {all.points[k]};
+    one.colors = {all.colors[k]};
+    one.features = {all.features[k]};
+    likelihood.evaluate(identity, one, score);
+    EXPECT_NEAR(score[0], reference, 1e-5f * reference) << "point " << k;
+    total += reference;
+  }
+  likelihood.evaluate(identity, all, score);
+  EXPECT_NEAR(score[0], total, 1e-5 * total);
 }
 
 TEST(JcsdLikelihood, InvalidInputThrows) {

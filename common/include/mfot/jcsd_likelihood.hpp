@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace mfot {
 
@@ -15,12 +16,18 @@ struct JcsdLikelihoodOptions {
 };
 
 // Scores particles against the model's JCSD grid (thesis 3.3). Steps:
-//  1. set_model: build J with Algorithm 3 (build_jcsd_grid).
-//  2. evaluate, once per call: copy the hypothesis data into structure-of-arrays buffers (positions
-//     and the three non-zero SMR bins of each point as offsets into a corner's 8 values).
-//  3. per particle: map the points into grid units with the inverse pose (3.18's object frame),
-//     interpolate J trilinearly at the 8 corners of each point's cell, correlate with the sparse
-//     SMR (3.19) and sum over points (3.20). Points whose cell is not inside the grid score 0.
+//  1. set_model / set_grid: build J with Algorithm 3 (build_jcsd_grid) and keep an aligned copy
+//     of it followed by a block of zero corners that points outside the grid read instead.
+//  2. evaluate, once per call: copy the hypothesis data into structure-of-arrays buffers
+//     (positions, and each point's SMR vector h as 8 dense floats).
+//  3. per particle, in batches of points: map the points into grid units with the inverse pose
+//     (3.18's object frame) and keep each point's cell and fractional position. Then, per point,
+//     interpolate all 8 colour densities of J trilinearly (3.18) from its cell's 8 corners, each
+//     corner one contiguous 32-byte load, and accumulate h times them per bin; after the last
+//     point the bins are added up. Since h . (sum_s w_s J(:, s)) = sum_s w_s (h . J(:, s)), this is
+//     3.19 summed over points (3.20), without gathers. Points whose cell is not inside the grid
+//     score 0. (The CUDA evaluator correlates at each corner first: the same sum, rounded
+//     differently.)
 // Particles are split into contiguous blocks across `threads` (a pool owned by this object); each
 // score is computed by one thread with the same arithmetic, so results do not depend on the
 // thread count. No allocation per particle; buffers grow only when the hypothesis data grows.
@@ -43,17 +50,26 @@ class JcsdLikelihood final : public Likelihood {
  private:
   class WorkerPool;
 
+  // Fills corners_ from grid_.
+  void copy_corners();
   void score_block(std::span<const Pose> particles, std::span<float> scores) const;
   float score_particle(const Pose& particle) const;
 
+  // One grid corner's 8 colour densities, or one point's dense SMR vector: a 32-byte load.
+  struct alignas(32) Bins {
+    float values[kSmrBins];
+  };
+
   JcsdLikelihoodOptions options_;
   JcsdGrid grid_;
+  // grid_.values as Bins, then zero corners covering an outside point's 8 corner reads.
+  std::vector<Bins> corners_;
+  std::int32_t outside_corner_ = 0;  // index of the first zero corner
   // Hypothesis data of the current evaluate call, padded to a multiple of 8 points with
-  // zero-weight entries so the inner loop has no remainder.
+  // zero-h entries so the batches have no remainder.
   std::size_t padded_points_ = 0;
   std::vector<float> x_, y_, z_;
-  std::vector<std::int32_t> offset_lo_, offset_hi_, offset_gray_;
-  std::vector<float> weight_lo_, weight_hi_, weight_gray_;
+  std::vector<Bins> smr_;
   std::unique_ptr<WorkerPool> pool_;
 };
 
