@@ -196,7 +196,7 @@ class Merger {
     frame_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
     try {
-      Frame frame = decode_frame(msg);
+      Frame frame = decode_frame(msg, FrameParts::kDepthOnly);  // label images need depth only
       frames_[msg.seq] = std::move(frame);
       while (frames_.size() > 64) frames_.erase(frames_.begin());
     } catch (const FrameCodecError& e) {
