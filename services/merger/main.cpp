@@ -329,17 +329,31 @@ class Merger {
       poses.objects.push_back(p);
     }
     poses.num_objects = static_cast<std::int32_t>(poses.objects.size());
-    write_results(scene, result);
+    write_poses(scene);
     lcm_.publish(channel::kPoses, &poses);
+    // The files that only evaluation reads come after the poses, off the frame-to-pose path (in
+    // lockstep the next frame is on its way meanwhile).
+    write_frame_outputs(scene, result);
     status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   }
 
-  void write_results(const Scene& scene, const ObjectManagerFrame& result) {
+  // poses.csv, flushed before the poses are published: every published frame's poses are on
+  // disk even if this process is killed right after (a restarted merger continues the file).
+  void write_poses(const Scene& scene) {
     if (!writer_) return;
-    if (config_.fitting_distance) fitting_.set_scene(scene.cloud.positions);
     for (const auto& [id, object] : manager_.objects()) {
       writer_->write_pose(scene.frame_seq, scene.capture_utime, id, object.pose, object.confidence, object.stale);
-      if (config_.fitting_distance && !scene.cloud.empty()) {
+    }
+    writer_->flush();
+  }
+
+  // fitting.csv and the label image of a published frame (a merger killed while writing them
+  // leaves that frame without them; label images appear whole or not at all).
+  void write_frame_outputs(const Scene& scene, const ObjectManagerFrame& result) {
+    if (!writer_) return;
+    if (config_.fitting_distance && !scene.cloud.empty()) {
+      fitting_.set_scene(scene.cloud.positions);
+      for (const auto& [id, object] : manager_.objects()) {
         writer_->write_fitting(scene.frame_seq, id, fitting_.evaluate(object.model.cloud.positions, object.pose).mean);
       }
     }
@@ -354,7 +368,6 @@ class Merger {
         frames_.erase(frames_.begin(), std::next(it));
       }
     }
-    // Every published frame is on disk even if this process is killed right after.
     writer_->flush();
   }
 
