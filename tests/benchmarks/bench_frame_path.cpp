@@ -9,6 +9,7 @@
 
 #include "mfot/frame_t.hpp"
 #include "mfot/metrics.hpp"
+#include "mfot/object_model_t.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/segmentation_t.hpp"
 #include "mfot/service/convert.hpp"
@@ -50,6 +51,8 @@ struct Recorded {
   std::map<std::int64_t, mfot::frame_t> frames;
   std::map<std::int64_t, mfot::scene_cloud_t> scenes;
   std::map<std::int64_t, mfot::segmentation_t> segmentations;
+  // Per frame: the models the merger sent after finishing it (object id -> model message).
+  std::map<std::int64_t, std::map<std::int32_t, mfot::object_model_t>> models;
 };
 
 template <class Message>
@@ -68,6 +71,11 @@ Recorded read_log(const std::string& path, std::size_t max_frames) {
     } else if (event->channel == "MFOT_SCENE") {
       mfot::scene_cloud_t m;
       if (decode_event(*event, m) && r.frames.count(m.frame_seq)) r.scenes[m.frame_seq] = std::move(m);
+    } else if (event->channel == "MFOT_MODEL") {
+      mfot::object_model_t m;
+      if (decode_event(*event, m) && m.num_points > 0 && r.frames.count(m.frame_seq)) {
+        r.models[m.frame_seq][m.object_id] = std::move(m);
+      }
     } else if (event->channel == "MFOT_SEGMENTATION") {
       mfot::segmentation_t m;
       if (decode_event(*event, m) && r.frames.count(m.frame_seq)) r.segmentations[m.frame_seq] = std::move(m);
@@ -157,6 +165,17 @@ int main(int argc, char** argv) {
     t = Clock::now();
     fitting.set_scene(scene.cloud.positions);
     series["fitting distance: scene index"].values.push_back(ms_since(t));
+    if (const auto models = rec.models.find(seq); models != rec.models.end()) {
+      t = Clock::now();
+      for (const auto& [id, model_message] : models->second) {
+        mfot::ObjectModel model;
+        mfot::Pose pose;
+        mfot::PoseVector velocity;
+        if (mfot::service::model_from_message(model_message, model, pose, velocity)) continue;
+        fitting.evaluate(model.cloud.positions, pose);
+      }
+      series["fitting distance: all objects"].values.push_back(ms_since(t));
+    }
   }
   std::printf("label images equal to the run's: %d of %d\n", labels_compared - labels_differing, labels_compared);
   std::printf("median ms per frame:\n");
