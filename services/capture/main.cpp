@@ -26,10 +26,14 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -48,6 +52,11 @@ using service::channel::kPoses;
 double milliseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
+
+// The reader thread runs this much nicer than the service (Linux niceness is per thread): reading
+// ahead (for the simulator: rendering, ~20 ms of CPU a frame) must not take the CPU from the
+// pipeline working on the frame already published, whose poses the frame-to-pose latency waits for.
+constexpr int kReaderNiceIncrement = 5;
 
 // A source that has not delivered the next frame for this long is reported as stalled.
 constexpr std::chrono::seconds kStallReport{1};
@@ -118,6 +127,7 @@ class SourceReader {
   static void read_all(State& state, std::int64_t start_frame, bool loop, const service::EncodeOptions& encoding) {
     FrameSource& source = *state.source;
     const std::string name = source.name();
+    lower_thread_priority(name);
     {
       std::lock_guard lock(state.mutex);
       state.name = name;
@@ -156,6 +166,15 @@ class SourceReader {
     std::lock_guard lock(state.mutex);
     state.done = true;
     state.changed.notify_all();
+  }
+
+  static void lower_thread_priority(const std::string& name) {
+    errno = 0;
+    const int nice = getpriority(PRIO_PROCESS, 0);  // 0: this thread on Linux
+    if ((nice == -1 && errno != 0) || setpriority(PRIO_PROCESS, 0, nice + kReaderNiceIncrement) != 0) {
+      spdlog::warn("{}: cannot lower the reader thread's priority ({}); it competes with the pipeline",
+                   name, std::strerror(errno));
+    }
   }
 
   std::shared_ptr<State> state_;
