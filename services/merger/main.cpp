@@ -204,13 +204,11 @@ class Merger {
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     frame_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
-    try {
-      Frame frame = decode_frame(msg, FrameParts::kDepthOnly);  // label images need depth only
-      frames_[msg.seq] = std::move(frame);
-      while (frames_.size() > 64) frames_.erase(frames_.begin());
-    } catch (const FrameCodecError& e) {
-      status_.malformed().record(chan, "undecodable frame", e.what());
-    }
+    // Decoded on the output thread: the frame arrives while preprocess works on it, and this
+    // thread's decoding would take the CPU from the frame-to-pose path.
+    const std::int64_t seq = msg.seq;
+    frames_[seq] = std::move(msg);
+    while (frames_.size() > 64) frames_.erase(frames_.begin());
   }
 
   void check_workers(Clock::time_point now) {
@@ -370,7 +368,7 @@ class Merger {
     if (config_.fitting_distance && !scene.cloud.empty()) {
       for (const auto& [id, object] : manager_.objects()) fitting.push_back({id, object.model.cloud.positions, object.pose});
     }
-    std::optional<Frame> frame;
+    std::optional<frame_t> frame;
     if (config_.write_labels) {
       const auto it = frames_.find(scene.frame_seq);
       if (it == frames_.end()) {
@@ -389,8 +387,13 @@ class Merger {
         }
       }
       if (frame) {
-        writer_->write_labels(seq, dense_labels(frame->width, frame->height, frame->fx, frame->fy, frame->cx,
-                                                frame->cy, frame->depth_mm, voxel_size, points, labels));
+        try {
+          const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
+          writer_->write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_size,
+                                                  points, labels));
+        } catch (const FrameCodecError& e) {
+          status_.malformed().record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
+        }
       }
       writer_->flush_fitting();
     });
@@ -434,7 +437,7 @@ class Merger {
   std::map<std::int32_t, Worker> workers_;
   std::map<std::int32_t, std::int32_t> owner_;  // object -> worker
   std::map<std::int32_t, std::int64_t> progress_;  // object -> last frame its owner finished
-  std::map<std::int64_t, Frame> frames_;         // for dense label images
+  std::map<std::int64_t, frame_t> frames_;       // for dense label images, as received
   std::int64_t last_finished_seq_ = -1;
   float voxel_size_ = 0.005f;
   bool started_ = false;
