@@ -6,7 +6,8 @@
 // simulator (or of a rendered TUM folder) is written to --groundtruth-dir for offline scoring.
 // Section `capture` of the config; the command line overrides it.
 //
-// The source is read on its own thread one frame ahead, so a source that stalls (a camera that
+// The source is read and its images encoded on their own thread one frame ahead (in lockstep the
+// next frame is ready to go the moment the poses arrive), so a source that stalls (a camera that
 // stops delivering, a file that cannot be read) never silences the service: it keeps reporting
 // on MFOT_STATUS that it waits for its source, and carries on when frames come again. When a
 // finite source ends, that is reported on MFOT_STATUS before the service exits with 0.
@@ -25,10 +26,14 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -48,17 +53,24 @@ double milliseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// The reader thread runs this much nicer than the service (Linux niceness is per thread): reading
+// ahead (for the simulator: rendering, ~20 ms of CPU a frame) must not take the CPU from the
+// pipeline working on the frame already published, whose poses the frame-to-pose latency waits for.
+constexpr int kReaderNiceIncrement = 5;
+
 // A source that has not delivered the next frame for this long is reported as stalled.
 constexpr std::chrono::seconds kStallReport{1};
 
-// Reads the source on its own thread, one frame ahead of the publisher. Seeking to the start
-// frame and rewinding for --loop happen there too, so every source call stays on one thread.
+// Reads the source and encodes its images on its own thread, one frame ahead of the publisher.
+// Seeking to the start frame and rewinding for --loop happen there too, so every source call
+// stays on one thread.
 class SourceReader {
  public:
   struct Frame {
     SourceFrame item;
+    frame_t message;       // the encoded images; the publisher sets seq, utime and capture_utime
     bool rewound = false;  // the first frame after a --loop rewind
-    double read_ms = 0.0;
+    double read_ms = 0.0;  // reading and encoding
   };
   struct Ended {};
   struct Failed {
@@ -66,12 +78,14 @@ class SourceReader {
   };
   using Result = std::variant<Frame, Ended, Failed>;
 
-  SourceReader(std::unique_ptr<FrameSource> source, std::int64_t start_frame, bool loop)
+  SourceReader(std::unique_ptr<FrameSource> source, std::int64_t start_frame, bool loop,
+               service::EncodeOptions encoding)
       : state_(std::make_shared<State>()) {
     state_->source = std::move(source);
     // The thread shares the state, so a thread still blocked in the source when the service
     // exits never touches freed memory.
-    thread_ = std::thread([state = state_, start_frame, loop] { read_all(*state, start_frame, loop); });
+    thread_ = std::thread(
+        [state = state_, start_frame, loop, encoding] { read_all(*state, start_frame, loop, encoding); });
   }
   SourceReader(const SourceReader&) = delete;
   SourceReader& operator=(const SourceReader&) = delete;
@@ -110,11 +124,13 @@ class SourceReader {
     bool done = false;
   };
 
-  static void read_all(State& state, std::int64_t start_frame, bool loop) {
+  static void read_all(State& state, std::int64_t start_frame, bool loop, const service::EncodeOptions& encoding) {
     FrameSource& source = *state.source;
+    const std::string name = source.name();
+    lower_thread_priority(name);
     {
       std::lock_guard lock(state.mutex);
-      state.name = source.name();
+      state.name = name;
     }
     const auto hand_over = [&state](Result result) {
       std::unique_lock lock(state.mutex);
@@ -140,7 +156,8 @@ class SourceReader {
           hand_over(Ended{});
           break;
         }
-        if (!hand_over(Frame{std::move(*item), rewound, milliseconds_since(start)})) break;
+        frame_t message = service::encode_frame(item->frame, encoding, 0, name, 0);
+        if (!hand_over(Frame{std::move(*item), std::move(message), rewound, milliseconds_since(start)})) break;
         rewound = false;
       }
     } catch (const std::exception& e) {
@@ -149,6 +166,15 @@ class SourceReader {
     std::lock_guard lock(state.mutex);
     state.done = true;
     state.changed.notify_all();
+  }
+
+  static void lower_thread_priority(const std::string& name) {
+    errno = 0;
+    const int nice = getpriority(PRIO_PROCESS, 0);  // 0: this thread on Linux
+    if ((nice == -1 && errno != 0) || setpriority(PRIO_PROCESS, 0, nice + kReaderNiceIncrement) != 0) {
+      spdlog::warn("{}: cannot lower the reader thread's priority ({}); it competes with the pipeline",
+                   name, std::strerror(errno));
+    }
   }
 
   std::shared_ptr<State> state_;
@@ -164,7 +190,7 @@ class CaptureService {
         source_live_(source->live()),
         schedule_(settings_.speed),
         status_(lcm, "capture", 0, source->kind()),
-        reader_(std::move(source), settings_.start_frame, settings_.loop) {
+        reader_(std::move(source), settings_.start_frame, settings_.loop, settings_.encoding) {
     if (settings_.rate == RateMode::kLockstep) lcm_.subscribe(kPoses, &CaptureService::on_poses, this);
     if (!settings_.groundtruth_dir.empty()) truth_writer_.emplace(settings_.groundtruth_dir);
   }
@@ -189,7 +215,7 @@ class CaptureService {
         spdlog::error("{}: {}", source_name_, failed->error);
         return finish("source failed: " + failed->error, 1);
       }
-      auto& [item, rewound, read_ms] = std::get<SourceReader::Frame>(*result);
+      auto& [item, message, rewound, read_ms] = std::get<SourceReader::Frame>(*result);
       if (rewound) {
         spdlog::info("{} ended after {} frames; looping", source_name_, seq_);
         // Keep capture time increasing across loops: continue one frame period after the last.
@@ -204,7 +230,7 @@ class CaptureService {
         if (!wait_until(schedule_.due(item.frame.capture_utime, Clock::now()))) break;
       }
       const auto publish_start = Clock::now();
-      publish(item);
+      publish(item, message);
       status_.frame_done(read_ms + milliseconds_since(publish_start));
       status_.tick();
       if (settings_.rate == RateMode::kLockstep && !wait_for_pipeline()) break;
@@ -261,9 +287,10 @@ class CaptureService {
     return std::nullopt;
   }
 
-  void publish(const SourceFrame& item) {
-    const frame_t message =
-        service::encode_frame(item.frame, settings_.encoding, seq_, source_name_, service::now_utime());
+  void publish(const SourceFrame& item, frame_t& message) {
+    message.seq = seq_;
+    message.capture_utime = item.frame.capture_utime;  // after a --loop offset
+    message.utime = service::now_utime();
     if (lcm_.publish(kFrame, &message) != 0) spdlog::warn("LCM publish of frame seq {} failed", seq_);
     last_capture_utime_ = item.frame.capture_utime;
     if (!truth_writer_) return;

@@ -8,6 +8,7 @@
 #include "mfot/object_manager.hpp"
 #include "mfot/poses_t.hpp"
 #include "mfot/segmentation_t.hpp"
+#include "mfot/service/background_queue.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/service_main.hpp"
@@ -49,6 +50,10 @@ constexpr int kMaxSceneResends = 3;
 // A scene this many frames older than the last one finished starts a new frame sequence (a
 // restarted capture or replay); anything closer is a late or repeated message.
 constexpr std::int64_t kSequenceRestart = 100;
+// Frames whose label image and fitting distances may wait for the output thread before the
+// merger waits for it; it runs this much nicer than the merger's own thread.
+constexpr std::size_t kOutputBacklog = 8;
+constexpr int kOutputNiceIncrement = 5;
 
 struct Worker {
   Clock::time_point last_seen;
@@ -62,7 +67,10 @@ class Merger {
  public:
   Merger(lcm::LCM& lcm, MergerConfig config, std::optional<std::string> output_dir, bool append_output)
       : lcm_(lcm), config_(std::move(config)), manager_(config_.manager), status_(lcm, "merger", 0, "cpu") {
-    if (output_dir) writer_ = std::make_unique<RunWriter>(*output_dir, append_output);
+    if (output_dir) {
+      writer_ = std::make_unique<RunWriter>(*output_dir, append_output);
+      outputs_ = std::make_unique<BackgroundQueue>("merger output writer", kOutputBacklog, kOutputNiceIncrement);
+    }
     lcm_.subscribe(channel::kScene, &Merger::on_scene, this);
     lcm_.subscribe(channel::kEstimate, &Merger::on_estimate, this);
     lcm_.subscribe(channel::kHeartbeat, &Merger::on_heartbeat, this);
@@ -84,6 +92,7 @@ class Merger {
       status_.set_queue_depth(static_cast<int>(pending_.size()));
       status_.tick();
     }
+    if (outputs_) outputs_->finish();
     if (writer_) writer_->flush();
     spdlog::info("stopped after {} frames; {} objects tracked", status_.frames(), manager_.objects().size());
   }
@@ -195,13 +204,11 @@ class Merger {
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     frame_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
-    try {
-      Frame frame = decode_frame(msg);
-      frames_[msg.seq] = std::move(frame);
-      while (frames_.size() > 64) frames_.erase(frames_.begin());
-    } catch (const FrameCodecError& e) {
-      status_.malformed().record(chan, "undecodable frame", e.what());
-    }
+    // Decoded on the output thread: the frame arrives while preprocess works on it, and this
+    // thread's decoding would take the CPU from the frame-to-pose path.
+    const std::int64_t seq = msg.seq;
+    frames_[seq] = std::move(msg);
+    while (frames_.size() > 64) frames_.erase(frames_.begin());
   }
 
   void check_workers(Clock::time_point now) {
@@ -329,33 +336,67 @@ class Merger {
       poses.objects.push_back(p);
     }
     poses.num_objects = static_cast<std::int32_t>(poses.objects.size());
-    write_results(scene, result);
+    write_poses(scene);
     lcm_.publish(channel::kPoses, &poses);
+    // The files that only evaluation reads come after the poses, off the frame-to-pose path (in
+    // lockstep the next frame is on its way meanwhile).
+    write_frame_outputs(scene, result);
     status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   }
 
-  void write_results(const Scene& scene, const ObjectManagerFrame& result) {
+  // poses.csv, flushed before the poses are published: every published frame's poses are on
+  // disk even if this process is killed right after (a restarted merger continues the file).
+  void write_poses(const Scene& scene) {
     if (!writer_) return;
-    if (config_.fitting_distance) fitting_.set_scene(scene.cloud.positions);
     for (const auto& [id, object] : manager_.objects()) {
       writer_->write_pose(scene.frame_seq, scene.capture_utime, id, object.pose, object.confidence, object.stale);
-      if (config_.fitting_distance && !scene.cloud.empty()) {
-        writer_->write_fitting(scene.frame_seq, id, fitting_.evaluate(object.model.cloud.positions, object.pose).mean);
-      }
     }
+    writer_->flush_poses();
+  }
+
+  // fitting.csv and the label image of a published frame, computed and written on the output
+  // thread from copies of what they need (a merger killed meanwhile leaves the last frames
+  // without them; label images appear whole or not at all).
+  void write_frame_outputs(const Scene& scene, const ObjectManagerFrame& result) {
+    if (!writer_) return;
+    struct FittingInput {
+      std::int32_t id;
+      std::vector<Eigen::Vector3f> model;
+      Pose pose;
+    };
+    std::vector<FittingInput> fitting;
+    if (config_.fitting_distance && !scene.cloud.empty()) {
+      for (const auto& [id, object] : manager_.objects()) fitting.push_back({id, object.model.cloud.positions, object.pose});
+    }
+    std::optional<frame_t> frame;
     if (config_.write_labels) {
       const auto it = frames_.find(scene.frame_seq);
       if (it == frames_.end()) {
         status_.set_message("no frame for labels of seq " + std::to_string(scene.frame_seq));
       } else {
-        const Frame& f = it->second;
-        writer_->write_labels(scene.frame_seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm,
-                                                            voxel_size_, scene.cloud.positions, result.labels));
+        frame = std::move(it->second);
         frames_.erase(frames_.begin(), std::next(it));
       }
     }
-    // Every published frame is on disk even if this process is killed right after.
-    writer_->flush();
+    outputs_->push([this, seq = scene.frame_seq, points = scene.cloud.positions, labels = result.labels,
+                    fitting = std::move(fitting), frame = std::move(frame), voxel_size = voxel_size_] {
+      if (!fitting.empty()) {
+        fitting_.set_scene(points);
+        for (const auto& object : fitting) {
+          writer_->write_fitting(seq, object.id, fitting_.evaluate(object.model, object.pose).mean);
+        }
+      }
+      if (frame) {
+        try {
+          const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
+          writer_->write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_size,
+                                                  points, labels));
+        } catch (const FrameCodecError& e) {
+          status_.malformed().record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
+        }
+      }
+      writer_->flush_fitting();
+    });
   }
 
   void publish_retirement(std::int32_t object_id, std::int64_t frame_seq) {
@@ -387,14 +428,16 @@ class Merger {
   MergerConfig config_;
   ObjectManager manager_;
   StatusReporter status_;
-  FittingDistanceEvaluator fitting_;
+  FittingDistanceEvaluator fitting_;  // used on the output thread only
   std::unique_ptr<RunWriter> writer_;
+  // Declared after what its jobs use, so it is destroyed (finishing them) first.
+  std::unique_ptr<BackgroundQueue> outputs_;
   std::deque<PendingScene> pending_;
   std::map<std::int64_t, std::map<std::int32_t, ObjectEstimate>> estimates_;  // frame -> object -> estimate
   std::map<std::int32_t, Worker> workers_;
   std::map<std::int32_t, std::int32_t> owner_;  // object -> worker
   std::map<std::int32_t, std::int64_t> progress_;  // object -> last frame its owner finished
-  std::map<std::int64_t, Frame> frames_;         // for dense label images
+  std::map<std::int64_t, frame_t> frames_;       // for dense label images, as received
   std::int64_t last_finished_seq_ = -1;
   float voxel_size_ = 0.005f;
   bool started_ = false;

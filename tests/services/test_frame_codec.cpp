@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -92,6 +93,26 @@ TEST(FrameCodec, LosslessEncodingsRoundTripExactly) {
       EXPECT_EQ(decoded.color, frame.color);
     }
   }
+}
+
+TEST(FrameCodec, DepthOnlyDecodingGivesTheSameDepthAndNoColour) {
+  const Frame frame = make_frame();
+  for (const auto color : {ColorEncoding::kRaw, ColorEncoding::kJpeg, ColorEncoding::kPng}) {
+    SCOPED_TRACE(to_string(color));
+    const frame_t message = over_the_wire(encode_frame(frame, options(DepthEncoding::kRvl, color), 5, "t", 0));
+    const Frame depth_only = decode_frame(message, FrameParts::kDepthOnly);
+    expect_same_geometry(frame, depth_only);
+    EXPECT_EQ(depth_only.depth_mm, frame.depth_mm);
+    EXPECT_TRUE(depth_only.color.empty());
+  }
+  // The colour's header fields are still checked.
+  frame_t message = encode_frame(frame, options(DepthEncoding::kRvl, ColorEncoding::kJpeg), 6, "t", 0);
+  message.color_size += 1;
+  EXPECT_NE(error_of([&] { decode_frame(message, FrameParts::kDepthOnly); }).find("color_size"), std::string::npos);
+  message.color_size -= 1;
+  message.color_encoding = 7;
+  EXPECT_NE(error_of([&] { decode_frame(message, FrameParts::kDepthOnly); }).find("unknown color_encoding 7"),
+            std::string::npos);
 }
 
 TEST(FrameCodec, RawDepthIsLittleEndian) {
@@ -392,6 +413,21 @@ TEST(ImageIo, Png16AndRgbRoundTripInMemory) {
   EXPECT_EQ(back.width, 2);
   EXPECT_EQ(back.height, 2);
   EXPECT_EQ(back.pixels, color.pixels);
+}
+
+TEST(ImageIo, FastAndSmallPngFilesHoldTheSamePixels) {
+  // A label image: runs of a few values, as the merger writes every frame.
+  Image16 labels{64, 48, std::vector<std::uint16_t>(64 * 48, 65535)};
+  for (int i = 0; i < 64 * 20; ++i) labels.pixels[static_cast<std::size_t>(700 + i)] = static_cast<std::uint16_t>(i % 3);
+  const std::string path = ::testing::TempDir() + "/mfot_png_compression_test.png";
+  for (const auto compression : {PngCompression::kSmall, PngCompression::kFast}) {
+    write_png16(path, labels, compression);
+    const Image16 back = read_png16(path);
+    EXPECT_EQ(back.width, labels.width);
+    EXPECT_EQ(back.height, labels.height);
+    EXPECT_EQ(back.pixels, labels.pixels);
+  }
+  std::remove(path.c_str());
 }
 
 TEST(ImageIo, RejectsWrongPngKindAndBadSizes) {

@@ -46,6 +46,17 @@ class NibbleReader {
   NibbleReader(const std::uint8_t* data, std::size_t size) : data_(data), nibbles_(2 * size) {}
 
   std::uint32_t get() {
+    // Fast path away from the end: a number has at most 11 nibbles, so none is checked.
+    if (nibbles_ - next_ >= 11) {
+      std::uint32_t value = 0;
+      for (int shift = 0; shift <= 30; shift += 3) {
+        const std::uint32_t nibble = (data_[next_ >> 1] >> ((~next_ & 1u) << 2)) & 0xfu;
+        ++next_;
+        value |= (nibble & 7u) << shift;
+        if ((nibble & 8u) == 0) return value;
+      }
+      throw FrameCodecError("RVL depth: a number has more than 11 groups");
+    }
     std::uint32_t value = 0;
     for (int shift = 0;; shift += 3) {
       if (shift > 30) throw FrameCodecError("RVL depth: a number has more than 11 groups");

@@ -336,7 +336,7 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
   return message;
 }
 
-Frame decode_frame(const frame_t& message) {
+Frame decode_frame(const frame_t& message, FrameParts parts) {
   const std::string what = "frame_t seq " + std::to_string(message.seq);
   check_frame_size(what, message.width, message.height);
   check_intrinsics(what, message.fx, message.fy, message.cx, message.cy);
@@ -396,6 +396,14 @@ Frame decode_frame(const frame_t& message) {
     }
   }
 
+  if (parts == FrameParts::kDepthOnly) {
+    if (message.color_encoding != frame_t::COLOR_RAW && message.color_encoding != frame_t::COLOR_JPEG &&
+        message.color_encoding != frame_t::COLOR_PNG) {
+      throw FrameCodecError(what + ": unknown color_encoding " + std::to_string(message.color_encoding) +
+                            " (expected 0=raw, 1=jpeg or 2=png)");
+    }
+    return frame;
+  }
   switch (message.color_encoding) {
     case frame_t::COLOR_RAW:
       if (message.color_data.size() != 3 * n) {

@@ -142,9 +142,10 @@ bool decode_png(PngContext& context, std::FILE* file, PixelLayout layout, int& w
   return true;
 }
 
-// Encodes `pixels` (16-bit native-order values or packed RGB) to `file` or context.sink.
+// Encodes `pixels` (16-bit native-order values or packed RGB) to `file` or context.sink; without
+// `filter_rows` every row is stored unfiltered (libpng otherwise tries every filter per row).
 bool encode_png(PngContext& context, std::FILE* file, PixelLayout layout, int width, int height,
-                const std::uint8_t* pixels, int level, std::vector<png_bytep>& rows) {
+                const std::uint8_t* pixels, int level, bool filter_rows, std::vector<png_bytep>& rows) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &context, on_png_error, on_png_warning);
   if (png == nullptr) {
     std::snprintf(context.message, sizeof context.message, "cannot create PNG writer");
@@ -166,6 +167,7 @@ bool encode_png(PngContext& context, std::FILE* file, PixelLayout layout, int wi
     png_set_write_fn(png, &context, on_png_write, on_png_flush);
   }
   png_set_compression_level(png, level);
+  if (!filter_rows) png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
   const bool gray16 = layout == PixelLayout::kGray16;
   png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), gray16 ? 16 : 8,
                gray16 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
@@ -263,14 +265,16 @@ Image decode_memory(const std::uint8_t* data, std::size_t size, PixelLayout layo
 }
 
 template <class Image>
-void write_file(const std::string& path, const Image& image, PixelLayout layout) {
+void write_file(const std::string& path, const Image& image, PixelLayout layout, PngCompression compression) {
   check_dimensions(path, image.width, image.height, image.pixels.size());
   File file(path, "wb");
   if (file.get() == nullptr) throw ImageIoError(path + ": cannot create: " + errno_text());
   PngContext context;
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   const bool encoded = encode_png(context, file.get(), layout, image.width, image.height,
-                                  reinterpret_cast<const std::uint8_t*>(image.pixels.data()), 6, rows);
+                                  reinterpret_cast<const std::uint8_t*>(image.pixels.data()),
+                                  compression == PngCompression::kFast ? 1 : 6, compression == PngCompression::kSmall,
+                                  rows);
   const bool closed = file.close();
   if (!encoded || !closed) {
     std::remove(path.c_str());
@@ -287,7 +291,7 @@ std::vector<std::uint8_t> encode_memory(const Image& image, PixelLayout layout, 
   context.sink = &out;
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   if (!encode_png(context, nullptr, layout, image.width, image.height,
-                  reinterpret_cast<const std::uint8_t*>(image.pixels.data()), level, rows)) {
+                  reinterpret_cast<const std::uint8_t*>(image.pixels.data()), level, true, rows)) {
     throw ImageIoError(std::string("PNG data: cannot encode: ") + context.message);
   }
   return out;
@@ -298,8 +302,12 @@ std::vector<std::uint8_t> encode_memory(const Image& image, PixelLayout layout, 
 Image16 read_png16(const std::string& path) { return read_file<Image16, std::uint16_t>(path, PixelLayout::kGray16); }
 ImageRgb read_png_rgb(const std::string& path) { return read_file<ImageRgb, Rgb8>(path, PixelLayout::kRgb8); }
 
-void write_png16(const std::string& path, const Image16& image) { write_file(path, image, PixelLayout::kGray16); }
-void write_png_rgb(const std::string& path, const ImageRgb& image) { write_file(path, image, PixelLayout::kRgb8); }
+void write_png16(const std::string& path, const Image16& image, PngCompression compression) {
+  write_file(path, image, PixelLayout::kGray16, compression);
+}
+void write_png_rgb(const std::string& path, const ImageRgb& image) {
+  write_file(path, image, PixelLayout::kRgb8, PngCompression::kSmall);
+}
 
 std::vector<std::uint8_t> encode_png16(const Image16& image, int level) {
   return encode_memory(image, PixelLayout::kGray16, level);

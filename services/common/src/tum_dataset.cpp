@@ -91,10 +91,11 @@ void rename_into_place(const std::string& temporary, const std::string& path) {
   }
 }
 
-void write_png16_atomically(const std::string& path, const Image16& image) {
+void write_png16_atomically(const std::string& path, const Image16& image,
+                            PngCompression compression = PngCompression::kSmall) {
   const std::string temporary = path + ".tmp";
   try {
-    write_png16(temporary, image);
+    write_png16(temporary, image, compression);
   } catch (const ImageIoError& e) {
     throw DatasetError(e.what());
   }
@@ -312,7 +313,9 @@ GroundTruthWriter::~GroundTruthWriter() { close_file(poses_); }
 void GroundTruthWriter::write(const GroundTruthFrame& truth) {
   if (truth.frame < 0) throw DatasetError("ground truth frame index must be >= 0");
   if (!truth.labels.pixels.empty() || truth.labels.width != 0) {
-    write_png16_atomically((fs::path(folder_) / "labels" / label_file_name(truth.frame)).string(), truth.labels);
+    // Written every frame by the capture service: fast compression (see PngCompression).
+    write_png16_atomically((fs::path(folder_) / "labels" / label_file_name(truth.frame)).string(), truth.labels,
+                           PngCompression::kFast);
   }
   std::string lines;
   char line[320];

@@ -66,8 +66,13 @@ inline constexpr int kMaxFrameSide = 8192;
 frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int64_t seq, const std::string& source,
                      std::int64_t utime);
 
-// Validates and decodes a wire message; throws FrameCodecError naming the problem.
-Frame decode_frame(const frame_t& message);
+// Which images decode_frame decodes. kDepthOnly leaves Frame::color empty, for consumers that
+// need depth alone (the merger's label images): the JPEG colour is most of a frame's decoding time.
+enum class FrameParts { kDepthAndColor, kDepthOnly };
+
+// Validates and decodes a wire message; throws FrameCodecError naming the problem. The colour's
+// size and encoding fields are checked in both modes.
+Frame decode_frame(const frame_t& message, FrameParts parts = FrameParts::kDepthAndColor);
 
 // The codec pieces, exposed for tools and tests.
 std::vector<std::uint8_t> depth_to_bytes(const std::vector<std::uint16_t>& depth_mm);  // little-endian

@@ -29,6 +29,10 @@ class RunWriter {
   // Written to a temporary name and renamed, so a reader never sees half an image.
   void write_labels(std::int64_t frame, const Image16& labels);
   void flush();
+  // The poses (write_pose, flush_poses) and the per-frame outputs (write_fitting, write_labels,
+  // flush_fitting) touch separate files: each group may be used from its own thread.
+  void flush_poses() { poses_.flush(); }
+  void flush_fitting() { fitting_.flush(); }
 
  private:
   std::string dir_;
