@@ -205,7 +205,7 @@ TEST(Individuation, SupportMonitorRetiresAfterConsecutiveMisses) {
   const std::vector<std::int32_t> ids = {4, 7};
   const auto step = [&](std::size_t a, std::size_t b) {
     const std::vector<std::size_t> counts = {a, b};
-    monitor.update(ids, counts, retired);
+    monitor.update(ids, counts, {}, retired);
     return retired;
   };
   EXPECT_TRUE(step(100, 5).empty());
