@@ -73,6 +73,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
   c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
   c.hold_occluded_share = s.get<float>("hold_occluded_share", c.hold_occluded_share, 0.f, 1.f);
+  c.occlusion.depth_margin = s.get<float>("hold_depth_margin", c.occlusion.depth_margin, 0.f, 1.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
   s.finish();
   try {
@@ -102,6 +103,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
   c.manager.hidden_occluded_share =
       s.get<float>("hidden_occluded_share", c.manager.hidden_occluded_share, 0.f, 1.f);
+  c.manager.occlusion.depth_margin =
+      s.get<float>("hidden_depth_margin", c.manager.occlusion.depth_margin, 0.f, 1.f);
   c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
   c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
   c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);
