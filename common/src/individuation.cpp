@@ -209,12 +209,17 @@ int SupportMonitor::frames_without_support(std::int32_t id) const {
 }
 
 void SupportMonitor::update(std::span<const std::int32_t> ids, std::span<const std::size_t> counts,
-                            std::vector<std::int32_t>& retired) {
+                            std::span<const std::uint8_t> hidden, std::vector<std::int32_t>& retired) {
   if (ids.size() != counts.size()) throw std::invalid_argument("SupportMonitor: ids and counts must have one size");
+  if (!hidden.empty() && hidden.size() != ids.size()) {
+    throw std::invalid_argument("SupportMonitor: hidden must be empty or have one flag per id");
+  }
   retired.clear();
   next_misses_.clear();
   for (std::size_t k = 0; k < ids.size(); ++k) {
-    const int frames = counts[k] < options_.min_points ? frames_without_support(ids[k]) + 1 : 0;
+    const bool lacking = counts[k] < options_.min_points;
+    const bool is_hidden = !hidden.empty() && hidden[k] != 0;
+    const int frames = !lacking ? 0 : frames_without_support(ids[k]) + (is_hidden ? 0 : 1);
     if (frames >= options_.max_frames) {
       retired.push_back(ids[k]);
     } else {

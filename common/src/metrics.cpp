@@ -33,31 +33,16 @@ void FittingDistanceOptions::validate() const {
 }
 
 FittingDistanceEvaluator::FittingDistanceEvaluator(const FittingDistanceOptions& options)
-    : options_(validated(options)), scene_hash_(kSceneCell), ray_hash_(options.occlusion_window) {
+    : options_(validated(options)),
+      scene_hash_(kSceneCell),
+      occlusion_({.window = options.occlusion_window, .depth_margin = options.depth_margin}) {
   scene_hash_.build({});
-  ray_hash_.build({});
 }
 
 void FittingDistanceEvaluator::set_scene(std::span<const Eigen::Vector3f> scene_points) {
   scene_.assign(scene_points.begin(), scene_points.end());
   scene_hash_.build(scene_);
-  ray_points_.clear();
-  ray_depth_.clear();
-  for (const auto& p : scene_) {
-    if (!(p.z() > 0.f)) continue;
-    ray_points_.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
-    ray_depth_.push_back(p.z());
-  }
-  ray_hash_.build(ray_points_);
-}
-
-bool FittingDistanceEvaluator::occluded(const Eigen::Vector3f& m) {
-  if (!(m.z() > 0.f)) return true;
-  neighbours_.clear();
-  ray_hash_.radius_search(Eigen::Vector3f(m.x() / m.z(), m.y() / m.z(), 0.f), options_.occlusion_window, neighbours_);
-  const float in_front = m.z() - options_.depth_margin;
-  return std::any_of(neighbours_.begin(), neighbours_.end(),
-                     [&](int i) { return ray_depth_[static_cast<std::size_t>(i)] < in_front; });
+  occlusion_.set_scene(scene_);
 }
 
 FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
@@ -72,7 +57,7 @@ FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector
   double sum = 0.0;
   for (const auto& p : model_points) {
     const Eigen::Vector3f m = to_camera * p;
-    if (options_.occlusion_test && occluded(m)) {
+    if (options_.occlusion_test && occlusion_.occluded(m)) {
       ++result.occluded;
       continue;
     }

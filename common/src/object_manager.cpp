@@ -25,6 +25,11 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.propagation_radius must be in [0, 0.1] m, got " +
                                 std::to_string(propagation_radius));
   }
+  if (!(hidden_occluded_share >= 0.f && hidden_occluded_share <= 1.f)) {
+    throw std::invalid_argument("ObjectManagerOptions.hidden_occluded_share must be in [0, 1], got " +
+                                std::to_string(hidden_occluded_share));
+  }
+  occlusion.validate();
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -36,6 +41,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options)
       segmenter_(options.segmentation),
       detector_(options.new_objects),
       support_(options.support),
+      occlusion_(options.occlusion),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
@@ -97,8 +103,19 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     ++object.version;
   }
 
-  // 4. retire objects without support
-  support_.update(segmentation_.object_ids, segmentation_.counts, frame_.retired);
+  // 4. retire objects without support, unless hidden
+  hidden_.assign(segmentation_.object_ids.size(), 0);
+  bool occlusion_scene_set = false;
+  for (std::size_t k = 0; k < segmentation_.object_ids.size(); ++k) {
+    if (options_.hidden_occluded_share <= 0.f || segmentation_.counts[k] >= options_.support.min_points) continue;
+    if (!occlusion_scene_set) {
+      occlusion_.set_scene(scene.positions);
+      occlusion_scene_set = true;
+    }
+    const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
+    hidden_[k] = occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
+  }
+  support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);

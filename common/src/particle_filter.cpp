@@ -195,6 +195,12 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   return estimate_;
 }
 
+const Pose& ParticleFilter::hold() {
+  if (!initialised_) throw std::logic_error("ParticleFilter::hold called before reset()");
+  velocity_.setZero();
+  return estimate_;
+}
+
 float ParticleFilter::effective_sample_size() const {
   double sum_sq = 0.0;
   for (const float w : weights_) sum_sq += static_cast<double>(w) * w;

@@ -6,6 +6,7 @@
 #include "mfot/capture/capture_settings.hpp"
 #include "mfot/capture/frame_source.hpp"
 #include "mfot/metrics.hpp"
+#include "mfot/occlusion.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
@@ -72,6 +73,7 @@ int run(const Options& cli) {
   std::unique_ptr<RunWriter> writer;
   std::unique_ptr<GroundTruthWriter> truth_writer;
   FittingDistanceEvaluator fitting;
+  OcclusionTest occlusion(tracker_config.occlusion);  // holds the filters of hidden objects
   std::ofstream timing;  // per-frame time, compared with the baselines' (scripts/bench-baselines)
   if (!cli.out_dir.empty()) {
     writer = std::make_unique<RunWriter>(cli.out_dir);
@@ -115,7 +117,14 @@ int run(const Options& cli) {
 
     const auto t_track = Clock::now();
     std::map<std::int32_t, ObjectEstimate> estimates;
+    if (tracker_config.hold_occluded_share > 0.f) occlusion.set_scene(scene.cloud.positions);
     for (auto& [id, tracker] : trackers) {
+      const auto& model_points = manager.objects().at(id).model.cloud.positions;
+      if (tracker_config.hold_occluded_share > 0.f &&
+          occlusion.occluded_share(model_points, tracker.filter->estimate()) >= tracker_config.hold_occluded_share) {
+        estimates[id] = {tracker.filter->hold(), tracker.filter->confidence()};
+        continue;
+      }
       select_hypothesis_data(scene.cloud, scene.features, tracker.model_box, tracker.filter->estimate(),
                              tracker_config.hypothesis, hypothesis);
       const Pose estimate = tracker.filter->step(hypothesis, *tracker.likelihood.likelihood);

@@ -7,6 +7,7 @@
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/hypothesis.hpp"
+#include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
@@ -143,10 +144,15 @@ class TrackerWorker {
   void track(Scene& scene) {
     if (object_id_ < 0 || !filter_) return;
     const auto t0 = Clock::now();
-    scene.features = compute_smr(scene.cloud.colors);
-    select_hypothesis_data(scene.cloud, scene.features, model_box_, filter_->estimate(), config_.hypothesis,
-                           hypothesis_);
-    const Pose estimate = filter_->step(hypothesis_, *choice_.likelihood);
+    Pose estimate;
+    if (hidden(scene)) {
+      estimate = filter_->hold();
+    } else {
+      scene.features = compute_smr(scene.cloud.colors);
+      select_hypothesis_data(scene.cloud, scene.features, model_box_, filter_->estimate(), config_.hypothesis,
+                             hypothesis_);
+      estimate = filter_->step(hypothesis_, *choice_.likelihood);
+    }
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 
     tracker_estimate_t msg{};
@@ -164,6 +170,14 @@ class TrackerWorker {
     lcm_.publish(channel::kEstimate, &msg);
     last_frame_ = scene.frame_seq;
     status_.frame_done(ms);
+  }
+
+  // The object's model at the last estimate is hidden behind nearer scene points: this frame's
+  // data cannot show it, so the filter holds instead of following the occluder.
+  bool hidden(const Scene& scene) {
+    if (config_.hold_occluded_share <= 0.f) return false;
+    occlusion_.set_scene(scene.cloud.positions);
+    return occlusion_.occluded_share(model_.cloud.positions, filter_->estimate()) >= config_.hold_occluded_share;
   }
 
   void heartbeat() {
@@ -188,6 +202,7 @@ class TrackerWorker {
   std::unique_ptr<ParticleFilter> filter_;
   std::optional<Scene> latest_scene_;
   HypothesisData hypothesis_;
+  OcclusionTest occlusion_{config_.occlusion};
 };
 
 }  // namespace

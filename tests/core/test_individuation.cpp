@@ -205,7 +205,7 @@ TEST(Individuation, SupportMonitorRetiresAfterConsecutiveMisses) {
   const std::vector<std::int32_t> ids = {4, 7};
   const auto step = [&](std::size_t a, std::size_t b) {
     const std::vector<std::size_t> counts = {a, b};
-    monitor.update(ids, counts, retired);
+    monitor.update(ids, counts, {}, retired);
     return retired;
   };
   EXPECT_TRUE(step(100, 5).empty());
@@ -222,6 +222,31 @@ TEST(Individuation, SupportMonitorRetiresAfterConsecutiveMisses) {
   SupportLossOptions invalid;
   invalid.max_frames = 0;
   EXPECT_THROW(SupportMonitor{invalid}, std::invalid_argument);
+}
+
+TEST(Individuation, SupportMonitorDoesNotCountHiddenFrames) {
+  SupportLossOptions options;
+  options.min_points = 20;
+  options.max_frames = 2;
+  SupportMonitor monitor(options);
+  std::vector<std::int32_t> retired;
+  const std::vector<std::int32_t> ids = {4, 7};
+  const std::vector<std::size_t> none = {0, 0};
+  const std::vector<std::uint8_t> seven_hidden = {0, 1};
+  monitor.update(ids, none, seven_hidden, retired);
+  EXPECT_TRUE(retired.empty());
+  EXPECT_EQ(monitor.frames_without_support(4), 1);
+  EXPECT_EQ(monitor.frames_without_support(7), 0);
+  for (int t = 0; t < 10 && retired.empty(); ++t) monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0},
+                                                                 std::vector<std::uint8_t>{1}, retired);
+  EXPECT_TRUE(retired.empty());  // hidden for 10 frames: still there
+  // A frame without support that is not hidden counts again; hidden ones keep the count.
+  monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0}, std::vector<std::uint8_t>{0}, retired);
+  monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0}, std::vector<std::uint8_t>{1}, retired);
+  EXPECT_EQ(monitor.frames_without_support(7), 1);
+  monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0}, std::vector<std::uint8_t>{0}, retired);
+  EXPECT_EQ(retired, std::vector<std::int32_t>{7});
+  EXPECT_THROW(monitor.update(ids, none, std::vector<std::uint8_t>{1}, retired), std::invalid_argument);
 }
 
 }  // namespace

@@ -84,6 +84,34 @@ TEST(ObjectManager, RetiresAnObjectThatLostItsSupport) {
   EXPECT_EQ(manager.objects().count(1), 1u);
 }
 
+TEST(ObjectManager, KeepsAnObjectHiddenBehindAnotherSurface) {
+  TwoBlocks scene;
+  ObjectManagerOptions options;
+  options.support.max_frames = 3;
+  ObjectManager manager(options);
+  manager.process(scene.cloud, scene.cluster, {});
+  // A plate 20 cm nearer the camera hides the second block (x in [0.1, 0.165] m at 1 m) from view.
+  ColoredCloud hidden;
+  std::vector<std::int32_t> cluster;
+  add_block(hidden, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  add_block(hidden, cluster, 1, {0.06f, -0.04f, 0.8f}, {24, 30, 1});
+  for (int t = 0; t < 6; ++t) {
+    const auto& frame = manager.process(hidden, cluster, unchanged(manager));
+    EXPECT_TRUE(frame.retired.empty());
+  }
+  EXPECT_EQ(manager.objects().count(2), 1u);
+  // The thesis's rule (every frame without support counts) retires it.
+  options.hidden_occluded_share = 0.f;
+  ObjectManager thesis(options);
+  thesis.process(scene.cloud, scene.cluster, {});
+  std::vector<std::int32_t> retired;
+  for (int t = 0; t < 3; ++t) {
+    const auto& frame = thesis.process(hidden, cluster, unchanged(thesis));
+    retired.insert(retired.end(), frame.retired.begin(), frame.retired.end());
+  }
+  EXPECT_EQ(retired, (std::vector<std::int32_t>{2}));
+}
+
 TEST(ObjectManager, AnObjectComingBackTakesItsIdBackAndADifferentOneDoesNot) {
   TwoBlocks scene;
   ObjectManagerOptions options;

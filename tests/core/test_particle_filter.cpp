@@ -222,6 +222,33 @@ TEST(ParticleFilter, ExposesWeightsVelocityAndConfidence) {
   EXPECT_LT(test::translation_error(filter.estimate(), before), 0.05f);
 }
 
+TEST(ParticleFilter, HoldKeepsTheEstimateAndForgetsTheMotion) {
+  const MovingObject scene;
+  JcsdLikelihood likelihood;
+  likelihood.set_model(scene.model);
+  ParticleFilter filter(tracking_options(11));
+  EXPECT_THROW(filter.hold(), std::logic_error);
+  filter.reset(scene.pose_at(0));
+  for (int frame = 1; frame <= 6; ++frame) {
+    filter.step(test::make_hypothesis(test::transformed(scene.object, scene.pose_at(frame))), likelihood);
+  }
+  ASSERT_GT(filter.velocity().norm(), 0.f);
+  const Pose before = filter.estimate();
+  const std::vector<Pose> particles(filter.particles().begin(), filter.particles().end());
+  const Pose held = filter.hold();
+  EXPECT_TRUE(held.translation.isApprox(before.translation) && held.rotation.isApprox(before.rotation));
+  EXPECT_EQ(filter.velocity(), PoseVector::Zero());
+  ASSERT_EQ(filter.particles().size(), particles.size());
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    EXPECT_EQ(filter.particles()[i].translation, particles[i].translation);
+  }
+  // The object reappears where it was hidden: the filter takes it up again from the held pose.
+  for (int frame = 0; frame < 5; ++frame) {
+    filter.step(test::make_hypothesis(test::transformed(scene.object, scene.pose_at(6))), likelihood);
+  }
+  EXPECT_LT(test::translation_error(filter.estimate(), scene.pose_at(6)), 0.003f);
+}
+
 TEST(ParticleFilter, ResamplingSchemesBothTrack) {
   const MovingObject scene;
   ParticleFilterOptions o = tracking_options(9);

@@ -123,16 +123,19 @@ struct SupportLossOptions {
 };
 
 // Counts, per object, consecutive frames with fewer than min_points segmented points and
-// reports objects that reach max_frames. Objects absent from an update are forgotten.
+// reports objects that reach max_frames. A hidden object's frames (occluded: it cannot have
+// support) leave its count as it was. Objects absent from an update are forgotten.
 class SupportMonitor {
  public:
   explicit SupportMonitor(const SupportLossOptions& options = {});
 
   const SupportLossOptions& options() const { return options_; }
 
-  // ids and counts as in SegmentationResult. retired receives (cleared first) the ids to retire,
-  // in input order; they are forgotten here.
-  void update(std::span<const std::int32_t> ids, std::span<const std::size_t> counts, std::vector<std::int32_t>& retired);
+  // ids and counts as in SegmentationResult; hidden: per id, non-zero when the object is hidden
+  // this frame (empty: none is). retired receives (cleared first) the ids to retire, in input
+  // order; they are forgotten here.
+  void update(std::span<const std::int32_t> ids, std::span<const std::size_t> counts,
+              std::span<const std::uint8_t> hidden, std::vector<std::int32_t>& retired);
 
   // Consecutive frames without support of id so far (0 when unknown).
   int frames_without_support(std::int32_t id) const;

@@ -3,6 +3,7 @@
 // segmentation accuracy (4.3, PMOTA of [KLK14]) and, where ground-truth poses exist (the
 // simulator), the relative pose error of every object.
 
+#include "mfot/occlusion.hpp"
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
@@ -39,9 +40,9 @@ struct FittingDistance {
 // the estimated pose), 0 for an occluded one. Occlusion test (ray casting from the camera at
 // the origin): m_i is occluded when a scene point lies inside the cone of half-angle
 // occlusion_window around the ray through m_i and is at least depth_margin closer to the camera
-// (depth along z). Model points at z <= 0 are behind the camera and count as occluded.
-// Steps: set_scene indexes the scene twice (3-D positions; normalised image coordinates
-// with their depth); evaluate moves the model into the camera frame and does one
+// (depth along z; OcclusionTest). Model points at z <= 0 are behind the camera and count as
+// occluded. Steps: set_scene indexes the scene twice (3-D positions; OcclusionTest's normalised
+// image coordinates with their depth); evaluate moves the model into the camera frame and does one
 // nearest-neighbour search and one cone search per model point.
 class FittingDistanceEvaluator {
  public:
@@ -57,15 +58,10 @@ class FittingDistanceEvaluator {
   FittingDistance evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
 
  private:
-  bool occluded(const Eigen::Vector3f& m);
-
   FittingDistanceOptions options_;
   SpatialHash scene_hash_;
-  SpatialHash ray_hash_;                      // (x/z, y/z, 0) of scene points with z > 0
+  OcclusionTest occlusion_;
   std::vector<Eigen::Vector3f> scene_;
-  std::vector<Eigen::Vector3f> ray_points_;
-  std::vector<float> ray_depth_;
-  std::vector<int> neighbours_;
 };
 
 // ---- segmentation accuracy -------------------------------------------------------------------

@@ -6,6 +6,7 @@
 #include "mfot/individuation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_updater.hpp"
+#include "mfot/occlusion.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
 #include "mfot/spatial_hash.hpp"
@@ -46,6 +47,11 @@ struct ObjectManagerOptions {
   int reidentify_frames = 900;
   // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
   float reidentify_similarity = 0.9f;
+  // An object lacking support whose model, at its pose, is at least this share occluded by
+  // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
+  // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
+  float hidden_occluded_share = 0.6f;
+  OcclusionOptions occlusion;
   void validate() const;
 };
 
@@ -77,7 +83,8 @@ struct ObjectManagerFrame {
 //   1. take each object's estimate (an object without one keeps its pose and is marked stale);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
-//   4. retire objects whose support stayed below the minimum for several frames;
+//   4. retire objects whose support stayed below the minimum for several frames; frames in
+//      which an object is hidden (its model mostly occluded by nearer scene points) do not count;
 //   5. unexplained points of clusters that hold segmented points take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
 //      their models by the points they gain (thinned evenly over the whole model when it
@@ -130,6 +137,8 @@ class ObjectManager {
   Segmenter segmenter_;
   NewObjectDetector detector_;
   SupportMonitor support_;
+  OcclusionTest occlusion_;
+  std::vector<std::uint8_t> hidden_;  // per segmentation_.object_ids entry
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
   std::map<std::int32_t, RetiredObject> retired_;

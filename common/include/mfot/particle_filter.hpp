@@ -74,6 +74,12 @@ class ParticleFilter {
   // One filter iteration (steps above); returns the new estimate. Throws std::logic_error before
   // the first reset().
   const Pose& step(const HypothesisData& data, Likelihood& likelihood);
+  // A frame whose data cannot show the object (hidden behind nearer surfaces; the caller
+  // decides, e.g. with OcclusionTest): no step, the estimate stays and dX becomes 0, since the
+  // hidden motion is unknown and the last one would carry the particles off. The particles and
+  // their weights stay for the next step(). Departure from the thesis, whose filter always steps
+  // (and then follows whatever occludes the object). Throws std::logic_error before reset().
+  const Pose& hold();
 
   const Pose& estimate() const { return estimate_; }
   // dX of the last step (2.13), (x, y, z, roll, pitch, yaw) per frame.

@@ -72,6 +72,8 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
   c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
+  c.hold_occluded_share = s.get<float>("hold_occluded_share", c.hold_occluded_share, 0.f, 1.f);
+  c.occlusion.depth_margin = s.get<float>("hold_depth_margin", c.occlusion.depth_margin, 0.f, 1.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
   s.finish();
   try {
@@ -99,6 +101,10 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
   c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
   c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
+  c.manager.hidden_occluded_share =
+      s.get<float>("hidden_occluded_share", c.manager.hidden_occluded_share, 0.f, 1.f);
+  c.manager.occlusion.depth_margin =
+      s.get<float>("hidden_depth_margin", c.manager.occlusion.depth_margin, 0.f, 1.f);
   c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
   c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
   c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);

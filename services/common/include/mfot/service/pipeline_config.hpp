@@ -6,6 +6,7 @@
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/hypothesis.hpp"
 #include "mfot/object_manager.hpp"
+#include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/config.hpp"
@@ -16,6 +17,10 @@ struct TrackerConfig {
   LikelihoodOptions likelihood;
   ParticleFilterOptions filter;
   HypothesisOptions hypothesis;
+  // A frame in which at least this share of the model, at the last estimate, is occluded by
+  // nearer scene points does not step the filter (ParticleFilter::hold); 0 = always step (thesis).
+  float hold_occluded_share = 0.6f;
+  OcclusionOptions occlusion;
   int heartbeat_ms = 100;
 };
 

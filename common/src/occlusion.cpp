@@ -1,0 +1,83 @@
+#include "mfot/occlusion.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace mfot {
+
+namespace {
+
+const OcclusionOptions& validated(const OcclusionOptions& options) {
+  options.validate();
+  return options;
+}
+
+}  // namespace
+
+void OcclusionOptions::validate() const {
+  if (!(window > 0.f && window <= 0.1f)) {
+    throw std::invalid_argument("OcclusionOptions.window must be in (0, 0.1], got " + std::to_string(window));
+  }
+  if (!(depth_margin >= 0.f && depth_margin <= 1.f)) {
+    throw std::invalid_argument("OcclusionOptions.depth_margin must be in [0, 1] metres, got " +
+                                std::to_string(depth_margin));
+  }
+  if (!(own_surface_radius >= 0.f && own_surface_radius <= 0.1f)) {
+    throw std::invalid_argument("OcclusionOptions.own_surface_radius must be in [0, 0.1] metres, got " +
+                                std::to_string(own_surface_radius));
+  }
+}
+
+OcclusionTest::OcclusionTest(const OcclusionOptions& options)
+    : options_(validated(options)), ray_hash_(options.window), own_hash_(std::max(options.own_surface_radius, 1e-3f)) {
+  ray_hash_.build({});
+}
+
+void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
+  ray_points_.clear();
+  ray_scene_.clear();
+  ray_depth_.clear();
+  for (const auto& p : scene_points) {
+    if (!(p.z() > 0.f)) continue;
+    ray_points_.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
+    ray_scene_.push_back(p);
+    ray_depth_.push_back(p.z());
+  }
+  ray_hash_.build(ray_points_);
+}
+
+bool OcclusionTest::occluded(const Eigen::Vector3f& point) { return occluded_by_other(point, nullptr); }
+
+bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own) {
+  if (!(point.z() > 0.f)) return true;
+  neighbours_.clear();
+  ray_hash_.radius_search(Eigen::Vector3f(point.x() / point.z(), point.y() / point.z(), 0.f), options_.window,
+                          neighbours_);
+  const float in_front = point.z() - options_.depth_margin;
+  return std::any_of(neighbours_.begin(), neighbours_.end(), [&](int i) {
+    const auto k = static_cast<std::size_t>(i);
+    return ray_depth_[k] < in_front && (own == nullptr || own->nearest(ray_scene_[k], options_.own_surface_radius) < 0);
+  });
+}
+
+float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+  if (model_points.empty()) return 0.f;
+  Pose unit = pose;
+  unit.rotation.normalize();
+  const Eigen::Isometry3f to_camera = unit.isometry();
+  own_points_.clear();
+  for (const auto& p : model_points) own_points_.push_back(to_camera * p);
+  const SpatialHash* own = nullptr;
+  if (options_.own_surface_radius > 0.f) {
+    own_hash_.build(own_points_);
+    own = &own_hash_;
+  }
+  std::size_t occluded_points = 0;
+  for (const auto& m : own_points_) {
+    if (occluded_by_other(m, own)) ++occluded_points;
+  }
+  return static_cast<float>(occluded_points) / static_cast<float>(model_points.size());
+}
+
+}  // namespace mfot
