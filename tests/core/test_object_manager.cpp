@@ -88,6 +88,7 @@ TEST(ObjectManager, KeepsAnObjectHiddenBehindAnotherSurface) {
   TwoBlocks scene;
   ObjectManagerOptions options;
   options.support.max_frames = 3;
+  options.hidden_occluded_share = 0.6f;
   ObjectManager manager(options);
   manager.process(scene.cloud, scene.cluster, {});
   // A plate 20 cm nearer the camera hides the second block (x in [0.1, 0.165] m at 1 m) from view.

@@ -50,7 +50,7 @@ struct ObjectManagerOptions {
   // An object lacking support whose model, at its pose, is at least this share occluded by
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
   // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
-  float hidden_occluded_share = 0.6f;
+  float hidden_occluded_share = 0.0f;
   OcclusionOptions occlusion;
   void validate() const;
 };

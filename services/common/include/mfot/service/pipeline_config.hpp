@@ -19,7 +19,7 @@ struct TrackerConfig {
   HypothesisOptions hypothesis;
   // A frame in which at least this share of the model, at the last estimate, is occluded by
   // nearer scene points does not step the filter (ParticleFilter::hold); 0 = always step (thesis).
-  float hold_occluded_share = 0.6f;
+  float hold_occluded_share = 0.0f;
   OcclusionOptions occlusion;
   int heartbeat_ms = 100;
 };
