@@ -101,6 +101,30 @@ class PipelineTest(unittest.TestCase):
             self.assertGreater(ev["segmentation"]["accuracy"], 0.9)
             self.assertLess(ev["pose_error"]["translation_median_mm"], 5.0)
 
+    def test_bundled_group_runs(self):
+        """scripts/bundle makes a folder mfot-run takes as its build dir: services, lcm-logger, Python types."""
+        with tempfile.TemporaryDirectory() as tmp:
+            bundle = Path(tmp) / "bundle"
+            res = subprocess.run([str(REPO / "scripts/bundle"), str(BUILD), str(bundle)], capture_output=True, text=True,
+                                 timeout=300)
+            self.assertEqual(res.returncode, 0, res.stdout + res.stderr)
+            for service in ("capture", "preprocess", "tracker", "merger", "replay"):
+                self.assertTrue((bundle / "services" / service / f"mfot-{service}").is_file(), service)
+            self.assertTrue((bundle / "bin/lcm-logger").is_file())
+            self.assertTrue(any((bundle / "lib").glob("liblcm.so*")))
+            env = {k: v for k, v in os.environ.items() if k != "MFOT_LCM_PY_DIR"}
+            env.update(MFOT_LCM_URL="udpm://239.255.76.67:7704?ttl=0", LD_LIBRARY_PATH=str(bundle / "lib"),
+                       PATH=f"{bundle / 'bin'}:{os.environ['PATH']}")
+            out = Path(tmp) / "run"
+            res = subprocess.run([sys.executable, str(REPO / "scripts/mfot-run"), "--build-dir", str(bundle), "--out",
+                                  str(out), "--quiet", "--backend", "cpu", "--scenario", "static", "--max-frames", "20"],
+                                 env=env, capture_output=True, text=True, timeout=600)
+            self.assertEqual(res.returncode, 0, res.stdout[-3000:] + res.stderr[-3000:])
+            with open(out / "poses.csv") as f:
+                frames = {int(row["frame"]) for row in csv.DictReader(f)}
+            self.assertEqual(frames, set(range(20)))
+            self.assertGreater((out / "mfot.lcmlog").stat().st_size, 0)
+
     def test_lockstep_replay_is_bit_identical(self):
         with tempfile.TemporaryDirectory() as tmp:
             first = Path(tmp) / "record"
