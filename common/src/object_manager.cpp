@@ -1,9 +1,11 @@
 #include "mfot/object_manager.hpp"
 
 #include "mfot/particle_filter.hpp"
+#include "mfot/preprocessing.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -209,28 +211,20 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
 
 namespace {
 
-// Indices of a spatially even subset of at most max_points of the points: the first point (in
-// input order) of every cell of a cubic lattice whose cell grows by 25 % from 2 mm until few
-// enough cells are occupied. Earlier points win their cells, so an existing model keeps its
-// points where the gained ones add nothing.
-std::vector<std::size_t> even_subset(std::span<const Eigen::Vector3f> points, std::size_t max_points) {
-  std::vector<std::size_t> chosen(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) chosen[i] = i;
-  if (points.size() <= max_points) return chosen;
-  std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> cells(points.size());
-  for (float cell = 0.002f;; cell *= 1.25f) {
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const Eigen::Vector3f c = (points[i] / cell).array().floor();
-      cells[i] = {{static_cast<std::int64_t>(c.x()), static_cast<std::int64_t>(c.y()), static_cast<std::int64_t>(c.z())}, i};
-    }
-    std::sort(cells.begin(), cells.end());  // by cell, then by input order
-    chosen.clear();
-    for (std::size_t k = 0; k < cells.size(); ++k) {
-      if (k == 0 || cells[k].first != cells[k - 1].first) chosen.push_back(cells[k].second);
-    }
-    if (chosen.size() <= max_points) break;
+// Indices (ascending) of a spatially even subset of at most max_points of the cloud: the first
+// point of every voxel (VoxelDownsampler, voxels in order of their first point) of a leaf that
+// grows by 25 % from 2 mm until few enough voxels are occupied. Earlier points win their voxels,
+// so an existing model keeps its points where the gained ones add nothing.
+std::vector<std::uint32_t> even_subset(const ColoredCloud& cloud, std::size_t max_points) {
+  std::vector<std::uint32_t> chosen(cloud.size());
+  std::iota(chosen.begin(), chosen.end(), 0u);
+  const std::vector<std::uint32_t> all = chosen;
+  for (float leaf = 0.002f; chosen.size() > max_points && leaf <= 1.f; leaf *= 1.25f) {
+    VoxelDownsampler voxels(leaf);
+    voxels.downsample(cloud.positions, cloud.colors, all);
+    chosen.assign(voxels.first_source_ids().begin(), voxels.first_source_ids().end());
   }
-  std::sort(chosen.begin(), chosen.end());
+  chosen.resize(std::min(chosen.size(), max_points));  // a cap below the voxels left at 1 m: the first ones
   return chosen;
 }
 
@@ -251,7 +245,7 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
   // Over the size limit the model thins out evenly instead of refusing the new part: an arm
   // reaching further in stays covered, so tau keeps segmenting it where the clustering splits
   // it from the hand (grazing views of an arm pointing at the camera).
-  const std::vector<std::size_t> keep = even_subset(grown.cloud.positions, options_.max_model_points);
+  const std::vector<std::uint32_t> keep = even_subset(grown.cloud, options_.max_model_points);
   if (keep.size() == grown.cloud.size()) {
     object.model = std::move(grown);
   } else {
@@ -259,7 +253,7 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
     object.model.features.clear();
     object.model.cloud.reserve(keep.size());
     object.model.features.reserve(keep.size());
-    for (const std::size_t k : keep) {
+    for (const std::uint32_t k : keep) {
       object.model.cloud.push_back(grown.cloud.positions[k], grown.cloud.colors[k]);
       object.model.features.push_back(grown.features[k]);
     }
