@@ -37,12 +37,10 @@ OcclusionTest::OcclusionTest(const OcclusionOptions& options)
 void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
   ray_points_.clear();
   ray_scene_.clear();
-  ray_depth_.clear();
   for (const auto& p : scene_points) {
     if (!(p.z() > 0.f)) continue;
     ray_points_.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
     ray_scene_.push_back(p);
-    ray_depth_.push_back(p.z());
   }
   ray_hash_.build(ray_points_);
 }
@@ -57,7 +55,7 @@ bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const Spatia
   const float in_front = point.z() - options_.depth_margin;
   return std::any_of(neighbours_.begin(), neighbours_.end(), [&](int i) {
     const auto k = static_cast<std::size_t>(i);
-    return ray_depth_[k] < in_front && (own == nullptr || own->nearest(ray_scene_[k], options_.own_surface_radius) < 0);
+    return ray_scene_[k].z() < in_front && (own == nullptr || own->nearest(ray_scene_[k], options_.own_surface_radius) < 0);
   });
 }
 

@@ -53,8 +53,7 @@ class OcclusionTest {
   OcclusionOptions options_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
   std::vector<Eigen::Vector3f> ray_points_;
-  std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point
-  std::vector<float> ray_depth_;
+  std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point (its depth is z)
   std::vector<int> neighbours_;
   SpatialHash own_hash_;
   std::vector<Eigen::Vector3f> own_points_;  // the model in the camera frame
