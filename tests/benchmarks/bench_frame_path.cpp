@@ -17,6 +17,8 @@
 #include "mfot/service/image_io.hpp"
 #include "mfot/service/run_writer.hpp"
 
+#include "bench_timing.hpp"
+
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
@@ -31,21 +33,9 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-struct Series {
-  std::vector<double> values;
-  double median() const {
-    if (values.empty()) return 0.0;
-    std::vector<double> sorted = values;
-    std::sort(sorted.begin(), sorted.end());
-    return sorted[sorted.size() / 2];
-  }
-};
+using mfot::bench::Clock;
+using mfot::bench::ms_since;
+using mfot::bench::Series;
 
 struct Recorded {
   std::map<std::int64_t, mfot::frame_t> frames;

@@ -13,6 +13,8 @@
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/jcsd_likelihood.hpp"
 
+#include "bench_timing.hpp"
+
 #if MFOT_HAVE_CUDA
 #include "mfot/cuda/cuda_jcsd_likelihood.hpp"
 #endif
@@ -34,7 +36,7 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using mfot::bench::Clock;
 using mfot::HypothesisData;
 using mfot::ObjectModel;
 using mfot::Pose;
@@ -105,14 +107,8 @@ std::vector<Pose> make_particles(const Pose& truth, std::size_t n, float sigma_t
   return particles;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using mfot::bench::median;
+using mfot::bench::ms_since;
 
 struct Scene {
   ObjectModel model;

@@ -8,6 +8,8 @@
 #include "mfot/preprocessing.hpp"
 #include "mfot/sim/simulator.hpp"
 
+#include "bench_timing.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -22,27 +24,9 @@
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-struct Series {
-  std::vector<double> values;
-  void add(double v) { values.push_back(v); }
-  double mean() const {
-    double s = 0.0;
-    for (const double v : values) s += v;
-    return values.empty() ? 0.0 : s / static_cast<double>(values.size());
-  }
-  double percentile(double q) const {
-    if (values.empty()) return 0.0;
-    std::vector<double> sorted = values;
-    std::sort(sorted.begin(), sorted.end());
-    return sorted[static_cast<std::size_t>(q * static_cast<double>(sorted.size() - 1) + 0.5)];
-  }
-};
+using mfot::bench::Clock;
+using mfot::bench::ms_since;
+using mfot::bench::Series;
 
 void print_row(const char* name, const Series& s) {
   std::printf("  %-28s mean %7.3f ms   median %7.3f ms   p95 %7.3f ms\n", name, s.mean(), s.percentile(0.5),
