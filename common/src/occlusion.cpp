@@ -30,7 +30,10 @@ void OcclusionOptions::validate() const {
 }
 
 OcclusionTest::OcclusionTest(const OcclusionOptions& options)
-    : options_(validated(options)), ray_hash_(options.window), own_hash_(std::max(options.own_surface_radius, 1e-3f)) {
+    : options_(validated(options)),
+      ray_hash_(options.window),
+      own_hash_(std::max(options.own_surface_radius, 1e-3f)),
+      model_ray_hash_(options.window) {
   ray_hash_.build({});
 }
 
@@ -59,13 +62,17 @@ bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const Spatia
   });
 }
 
-float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
-  if (model_points.empty()) return 0.f;
+void OcclusionTest::set_own_points(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
   Pose unit = pose;
   unit.rotation.normalize();
   const Eigen::Isometry3f to_camera = unit.isometry();
   own_points_.clear();
   for (const auto& p : model_points) own_points_.push_back(to_camera * p);
+}
+
+float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+  if (model_points.empty()) return 0.f;
+  set_own_points(model_points, pose);
   const SpatialHash* own = nullptr;
   if (options_.own_surface_radius > 0.f) {
     own_hash_.build(own_points_);
@@ -76,6 +83,45 @@ float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_point
     if (occluded_by_other(m, own)) ++occluded_points;
   }
   return static_cast<float>(occluded_points) / static_cast<float>(model_points.size());
+}
+
+std::size_t OcclusionTest::remove_occluders(std::span<const Eigen::Vector3f> model_points, const Pose& pose,
+                                            HypothesisData& data) {
+  if (model_points.empty() || data.points.empty()) return 0;
+  set_own_points(model_points, pose);
+  own_hash_.build(own_points_);
+  model_rays_.clear();
+  model_depths_.clear();
+  for (const auto& m : own_points_) {
+    if (!(m.z() > 0.f)) continue;
+    model_rays_.emplace_back(m.x() / m.z(), m.y() / m.z(), 0.f);
+    model_depths_.push_back(m.z());
+  }
+  model_ray_hash_.build(model_rays_);
+  const auto occludes = [&](const Eigen::Vector3f& p) {
+    if (!(p.z() > 0.f)) return false;
+    if (options_.own_surface_radius > 0.f && own_hash_.nearest(p, options_.own_surface_radius) >= 0) return false;
+    neighbours_.clear();
+    model_ray_hash_.radius_search(Eigen::Vector3f(p.x() / p.z(), p.y() / p.z(), 0.f), options_.window, neighbours_);
+    const float behind = p.z() + options_.depth_margin;
+    return std::any_of(neighbours_.begin(), neighbours_.end(),
+                       [&](int i) { return model_depths_[static_cast<std::size_t>(i)] > behind; });
+  };
+  std::size_t kept = 0;
+  const std::size_t n = data.points.size();
+  const bool has_features = data.features.size() == n;
+  const bool has_colors = data.colors.size() == n;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (occludes(data.points[k])) continue;
+    data.points[kept] = data.points[k];
+    if (has_features) data.features[kept] = data.features[k];
+    if (has_colors) data.colors[kept] = data.colors[k];
+    ++kept;
+  }
+  data.points.resize(kept);
+  if (has_features) data.features.resize(kept);
+  if (has_colors) data.colors.resize(kept);
+  return n - kept;
 }
 
 }  // namespace mfot

@@ -6,7 +6,7 @@
 #include "mfot/capture/capture_settings.hpp"
 #include "mfot/capture/frame_source.hpp"
 #include "mfot/metrics.hpp"
-#include "mfot/occlusion.hpp"
+#include "mfot/tracking_step.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
@@ -73,7 +73,7 @@ int run(const Options& cli) {
   std::unique_ptr<RunWriter> writer;
   std::unique_ptr<GroundTruthWriter> truth_writer;
   FittingDistanceEvaluator fitting;
-  OcclusionTest occlusion(tracker_config.occlusion);  // holds the filters of hidden objects
+  TrackingStep tracking(tracker_config.step);  // one for all objects: it keeps no per-object state
   std::ofstream timing;  // per-frame time, compared with the baselines' (scripts/bench-baselines)
   if (!cli.out_dir.empty()) {
     writer = std::make_unique<RunWriter>(cli.out_dir);
@@ -88,7 +88,6 @@ int run(const Options& cli) {
   const auto ms_since = [](Clock::time_point t) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
   };
-  HypothesisData hypothesis;
   Scene scene;
   std::int64_t seq = 0;
   const auto start = Clock::now();
@@ -117,18 +116,17 @@ int run(const Options& cli) {
 
     const auto t_track = Clock::now();
     std::map<std::int32_t, ObjectEstimate> estimates;
-    if (tracker_config.hold_occluded_share > 0.f) occlusion.set_scene(scene.cloud.positions);
     for (auto& [id, tracker] : trackers) {
-      const auto& model_points = manager.objects().at(id).model.cloud.positions;
-      if (tracker_config.hold_occluded_share > 0.f &&
-          occlusion.occluded_share(model_points, tracker.filter->estimate()) >= tracker_config.hold_occluded_share) {
-        estimates[id] = {tracker.filter->hold(), tracker.filter->confidence()};
-        continue;
-      }
-      select_hypothesis_data(scene.cloud, scene.features, tracker.model_box, tracker.filter->estimate(),
-                             tracker_config.hypothesis, hypothesis);
-      const Pose estimate = tracker.filter->step(hypothesis, *tracker.likelihood.likelihood);
-      estimates[id] = {estimate, tracker.filter->confidence()};
+      const ObjectModel& model = manager.objects().at(id).model;
+      const TrackingStepResult step =
+          tracking.track(scene.cloud, scene.features, model, tracker.model_box, *tracker.filter,
+                         *tracker.likelihood.likelihood);
+      estimates[id] = {step.estimate, tracker.filter->confidence()};
+      spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
+                    "t [{:.3f} {:.3f} {:.3f}]",
+                    seq, id, model.cloud.size(), step.held ? "held" : "stepped", step.occluded_share, step.hypothesis_points,
+                    step.occluders_removed, step.estimate.translation.x(), step.estimate.translation.y(),
+                    step.estimate.translation.z());
     }
     track_ms.push_back(ms_since(t_track));
     const auto t_merge = Clock::now();

@@ -6,8 +6,6 @@
 
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/heartbeat_t.hpp"
-#include "mfot/hypothesis.hpp"
-#include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
@@ -16,6 +14,7 @@
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
 #include "mfot/tracker_estimate_t.hpp"
+#include "mfot/tracking_step.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -144,15 +143,12 @@ class TrackerWorker {
   void track(Scene& scene) {
     if (object_id_ < 0 || !filter_) return;
     const auto t0 = Clock::now();
-    Pose estimate;
-    if (hidden(scene)) {
-      estimate = filter_->hold();
-    } else {
-      scene.features = compute_smr(scene.cloud.colors);
-      select_hypothesis_data(scene.cloud, scene.features, model_box_, filter_->estimate(), config_.hypothesis,
-                             hypothesis_);
-      estimate = filter_->step(hypothesis_, *choice_.likelihood);
-    }
+    scene.features = compute_smr(scene.cloud.colors);
+    const TrackingStepResult result =
+        step_.track(scene.cloud, scene.features, model_, model_box_, *filter_, *choice_.likelihood);
+    spdlog::debug("frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out", scene.frame_seq,
+                  object_id_, result.held ? "held" : "stepped", result.occluded_share, result.hypothesis_points,
+                  result.occluders_removed);
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 
     tracker_estimate_t msg{};
@@ -161,23 +157,15 @@ class TrackerWorker {
     msg.object_id = object_id_;
     msg.worker_id = worker_id_;
     msg.model_version = model_version_;
-    pose_to_arrays(estimate, msg.position, msg.orientation);
+    pose_to_arrays(result.estimate, msg.position, msg.orientation);
     msg.confidence = filter_->confidence();
     msg.effective_sample_size = filter_->effective_sample_size();
     msg.num_particles = config_.filter.num_particles;
-    msg.num_hypothesis_points = static_cast<std::int32_t>(hypothesis_.points.size());
+    msg.num_hypothesis_points = static_cast<std::int32_t>(result.hypothesis_points);
     msg.compute_ms = static_cast<float>(ms);
     lcm_.publish(channel::kEstimate, &msg);
     last_frame_ = scene.frame_seq;
     status_.frame_done(ms);
-  }
-
-  // The object's model at the last estimate is hidden behind nearer scene points: this frame's
-  // data cannot show it, so the filter holds instead of following the occluder.
-  bool hidden(const Scene& scene) {
-    if (config_.hold_occluded_share <= 0.f) return false;
-    occlusion_.set_scene(scene.cloud.positions);
-    return occlusion_.occluded_share(model_.cloud.positions, filter_->estimate()) >= config_.hold_occluded_share;
   }
 
   void heartbeat() {
@@ -201,8 +189,7 @@ class TrackerWorker {
   Eigen::AlignedBox3f model_box_;
   std::unique_ptr<ParticleFilter> filter_;
   std::optional<Scene> latest_scene_;
-  HypothesisData hypothesis_;
-  OcclusionTest occlusion_{config_.occlusion};
+  TrackingStep step_{config_.step};
 };
 
 }  // namespace

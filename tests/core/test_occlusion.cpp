@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
@@ -83,6 +86,77 @@ TEST(OcclusionTest, MovesTheModelByThePose) {
   EXPECT_EQ(test.occluded_share(model, pose), 1.f);
   pose.translation.z() = 0.85f;  // now in front of the plate
   EXPECT_EQ(test.occluded_share(model, pose), 0.f);
+}
+
+HypothesisData as_data(const std::vector<Eigen::Vector3f>& points) {
+  HypothesisData data;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    data.points.push_back(points[k]);
+    data.features.push_back(SmrFeature{});
+    data.features.back().gray_weight = static_cast<float>(k);  // tags each point's feature
+    data.colors.push_back(Rgb8{static_cast<std::uint8_t>(k % 256), 0, 0});
+  }
+  return data;
+}
+
+TEST(OcclusionTest, RemovesThePointsInFrontOfTheModelAndKeepsTheRestInOrder) {
+  const auto model = facing_patch(1.0f);  // 20 x 20 points, x in [-4.75, 4.75] cm
+  // Data: the model's visible surface (400 points), a plate 10 cm in front over the half x < 0
+  // (a hand: 400 points, about half of them in front of the model), a surface behind the model.
+  std::vector<Eigen::Vector3f> points = model;
+  const auto plate = facing_patch(0.9f, 20, -0.05f);
+  points.insert(points.end(), plate.begin(), plate.end());
+  const auto behind = facing_patch(1.2f, 4);
+  points.insert(points.end(), behind.begin(), behind.end());
+  HypothesisData data = as_data(points);
+  OcclusionTest test;
+  const std::size_t removed = test.remove_occluders(model, identity(), data);
+  // The plate's points on rays through the model go; its points beside the model, the model's own
+  // surface and the surface behind it stay.
+  std::size_t in_front = 0;
+  for (const auto& p : plate) in_front += std::abs(p.x() / p.z()) < 0.0475f / 1.0f + 0.006f ? 1 : 0;
+  EXPECT_GT(removed, 150u);
+  EXPECT_LE(removed, in_front);
+  ASSERT_EQ(data.points.size(), points.size() - removed);
+  ASSERT_EQ(data.features.size(), data.points.size());
+  ASSERT_EQ(data.colors.size(), data.points.size());
+  for (std::size_t k = 0; k < model.size(); ++k) EXPECT_EQ(data.points[k], model[k]);  // first, in order
+  float last_tag = -1.f;
+  for (std::size_t k = 0; k < data.points.size(); ++k) {
+    const float tag = data.features[k].gray_weight;
+    EXPECT_GT(tag, last_tag);
+    EXPECT_EQ(points[static_cast<std::size_t>(tag)], data.points[k]);  // feature travelled with its point
+    last_tag = tag;
+    EXPECT_FALSE(data.points[k].z() < 0.95f && std::abs(data.points[k].x()) < 0.04f) << "a point in front stayed";
+  }
+  for (const auto& p : behind) {
+    EXPECT_NE(std::find(data.points.begin(), data.points.end(), p), data.points.end());
+  }
+}
+
+TEST(OcclusionTest, RemovingOccludersSparesTheObjectsOwnNearSideAndFollowsThePose) {
+  // A two-sided model (front 1.00 m, back 1.04 m): the observed front face occludes the back face
+  // but is the object's own surface.
+  std::vector<Eigen::Vector3f> model = facing_patch(0.f);
+  for (const auto& p : facing_patch(0.04f)) model.push_back(p);
+  Pose pose;
+  pose.translation = Eigen::Vector3f(0.f, 0.f, 1.f);
+  HypothesisData data = as_data(facing_patch(1.0f));
+  OcclusionTest test;
+  EXPECT_EQ(test.remove_occluders(model, pose, data), 0u);
+  EXPECT_EQ(data.points.size(), 400u);
+  // Without the own-surface rule the front face counts as an occluder of the back face.
+  OcclusionOptions plain;
+  plain.own_surface_radius = 0.f;
+  OcclusionTest plain_test(plain);
+  EXPECT_EQ(plain_test.remove_occluders(model, pose, data), 400u);
+  // The model moved 20 cm back: a surface at 1 m within its silhouette is now in front of it.
+  data = as_data(facing_patch(1.0f, 16));
+  pose.translation.z() = 1.2f;
+  EXPECT_EQ(test.remove_occluders(model, pose, data), 256u);
+  EXPECT_TRUE(data.points.empty() && data.features.empty() && data.colors.empty());
+  // Nothing to remove from, or nothing to be occluded.
+  EXPECT_EQ(test.remove_occluders({}, pose, data), 0u);
 }
 
 }  // namespace

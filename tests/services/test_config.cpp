@@ -1,4 +1,5 @@
 #include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -73,6 +74,29 @@ TEST(Config, NestedSectionsAndVectors) {
   EXPECT_THROW(world.finish(), ConfigError);
   EXPECT_THROW(check_top_level(root, {"capture"}), ConfigError);
   EXPECT_NO_THROW(check_top_level(root, {"merger"}));
+}
+
+TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
+  const TrackerConfig c = load_tracker_config(YAML::Load(
+      "tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"
+      "  occluder_depth_margin: 0.02\n  own_surface_radius: 0.005\n  occlusion_window: 0.01\n"));
+  EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.04f);
+  EXPECT_TRUE(c.step.exclude_occluders);
+  EXPECT_FLOAT_EQ(c.step.hold_occluded_share, 0.7f);
+  EXPECT_FLOAT_EQ(c.step.occlusion.depth_margin, 0.02f);
+  EXPECT_FLOAT_EQ(c.step.occlusion.own_surface_radius, 0.005f);
+  EXPECT_FLOAT_EQ(c.step.occlusion.window, 0.01f);
+  // Absent keys: the thesis's step (every point scored, never held).
+  const TrackerConfig thesis = load_tracker_config(YAML::Load("tracker:\n  particles: 50\n"));
+  EXPECT_FALSE(thesis.step.exclude_occluders);
+  EXPECT_EQ(thesis.step.hold_occluded_share, 0.f);
+  try {
+    load_tracker_config(YAML::Load("tracker:\n  occlusion_window: 0.5\n"));
+    FAIL() << "occlusion_window 0.5 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("occlusion_window"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
 }
 
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {

@@ -2,6 +2,7 @@
 // Ray-casting occlusion test of a model against the scene (thesis 4.1's test for the fitting
 // distance, after [RC11]); mfot also uses it while tracking to tell a hidden object from a lost one.
 
+#include "mfot/likelihood.hpp"
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
@@ -45,10 +46,17 @@ class OcclusionTest {
   // scene points other than the object's own surface (own_surface_radius), in [0, 1]; 0 for an
   // empty model.
   float occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
+  // The inverse question, asked of hypothesis data: removes from data the points that occlude the
+  // model (object frame, moved by pose) — points at least depth_margin in front of a model point
+  // on their viewing cone and farther than own_surface_radius from every model point (a hand in
+  // front of the object, not its own near side). The remaining points keep their order. Returns
+  // how many were removed. Independent of set_scene().
+  std::size_t remove_occluders(std::span<const Eigen::Vector3f> model_points, const Pose& pose, HypothesisData& data);
 
  private:
   // occluded(), ignoring scene points within own_surface_radius of own_ (when given).
   bool occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own);
+  void set_own_points(std::span<const Eigen::Vector3f> model_points, const Pose& pose);  // own_points_ = pose * model
 
   OcclusionOptions options_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
@@ -57,6 +65,9 @@ class OcclusionTest {
   std::vector<int> neighbours_;
   SpatialHash own_hash_;
   std::vector<Eigen::Vector3f> own_points_;  // the model in the camera frame
+  SpatialHash model_ray_hash_;               // remove_occluders: (x/z, y/z, 0) of the model's points
+  std::vector<Eigen::Vector3f> model_rays_;
+  std::vector<float> model_depths_;          // their depths, by the same index
 };
 
 }  // namespace mfot

@@ -71,9 +71,13 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.a = s.get<float>("diffusion_a", c.filter.a, 0.f, 100.f);
   c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
-  c.hypothesis.margin = s.get<float>("hypothesis_margin", c.hypothesis.margin, 0.f, 1.f);
-  c.hold_occluded_share = s.get<float>("hold_occluded_share", c.hold_occluded_share, 0.f, 1.f);
-  c.occlusion.depth_margin = s.get<float>("hold_depth_margin", c.occlusion.depth_margin, 0.f, 1.f);
+  c.step.hypothesis.margin = s.get<float>("hypothesis_margin", c.step.hypothesis.margin, 0.f, 1.f);
+  c.step.hold_occluded_share = s.get<float>("hold_occluded_share", c.step.hold_occluded_share, 0.f, 1.f);
+  c.step.exclude_occluders = s.get<bool>("exclude_occluders", c.step.exclude_occluders);
+  c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", c.step.occlusion.depth_margin, 0.f, 1.f);
+  c.step.occlusion.window = s.get<float>("occlusion_window", c.step.occlusion.window, 1e-4f, 0.1f);
+  c.step.occlusion.own_surface_radius =
+      s.get<float>("own_surface_radius", c.step.occlusion.own_surface_radius, 0.f, 0.1f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
   s.finish();
   try {

@@ -4,23 +4,18 @@
 // Shared by the services and the in-process runner, so both run exactly the same configuration.
 
 #include "mfot/cuda/likelihood_factory.hpp"
-#include "mfot/hypothesis.hpp"
 #include "mfot/object_manager.hpp"
-#include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/tracking_step.hpp"
 
 namespace mfot::service {
 
 struct TrackerConfig {
   LikelihoodOptions likelihood;
   ParticleFilterOptions filter;
-  HypothesisOptions hypothesis;
-  // A frame in which at least this share of the model, at the last estimate, is occluded by
-  // nearer scene points does not step the filter (ParticleFilter::hold); 0 = always step (thesis).
-  float hold_occluded_share = 0.0f;
-  OcclusionOptions occlusion;
+  TrackingStepOptions step;  // hypothesis data, occlusion hold and occluder removal
   int heartbeat_ms = 100;
 };
 

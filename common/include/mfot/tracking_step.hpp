@@ -1,0 +1,69 @@
+#pragma once
+// One object's tracking step on one frame: hypothesis data (thesis 3.3) and the particle filter
+// (2.2.2, 3.1, likelihood 3.20/3.21), with mfot's occlusion handling around them (README "Where
+// mfot departs from the thesis"): the thesis scores every scene point near the last estimate, so a
+// hand passing over an object pulls its filter onto the hand.
+
+#include "mfot/hypothesis.hpp"
+#include "mfot/likelihood.hpp"
+#include "mfot/occlusion.hpp"
+#include "mfot/particle_filter.hpp"
+
+#include <cstddef>
+#include <span>
+
+namespace mfot {
+
+struct TrackingStepOptions {
+  HypothesisOptions hypothesis;
+  // Cone, depth margin and own-surface radius of the occlusion tests below.
+  OcclusionOptions occlusion;
+  // A frame in which at least this share of the model, at the last estimate, is occluded by
+  // nearer scene points holds the filter (ParticleFilter::hold) instead of stepping it: the data
+  // cannot show a hidden object. [0, 1]; 0 = always step (thesis).
+  float hold_occluded_share = 0.f;
+  // Hypothesis points in front of the model at the last estimate (the hand over it) are left out
+  // of the likelihood (OcclusionTest::remove_occluders); false = score them all (thesis).
+  bool exclude_occluders = false;
+  void validate() const;  // throws std::invalid_argument naming the field
+};
+
+struct TrackingStepResult {
+  Pose estimate;
+  bool held = false;                    // the object was hidden: the filter did not step
+  float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
+  std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
+  std::size_t occluders_removed = 0;
+};
+
+// Steps of track():
+//  1. when hold_occluded_share > 0: the model's occluded share at the last estimate; at or above
+//     it the filter holds and the step ends;
+//  2. select the hypothesis data around the last estimate (3.3);
+//  3. when exclude_occluders: remove the points in front of the model at the last estimate;
+//  4. step the filter with the likelihood on what is left.
+// Deterministic: no random draws of its own (the filter owns its generator). Non-copyable: it
+// owns the occlusion indexes and the hypothesis buffers, reused across frames.
+class TrackingStep {
+ public:
+  explicit TrackingStep(const TrackingStepOptions& options = {});
+  TrackingStep(const TrackingStep&) = delete;
+  TrackingStep& operator=(const TrackingStep&) = delete;
+
+  const TrackingStepOptions& options() const { return options_; }
+
+  // scene_features must match the scene in length; model_box is model_bounding_box(model), kept by
+  // the caller since the model changes less often than the scene.
+  TrackingStepResult track(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
+                           const ObjectModel& model, const Eigen::AlignedBox3f& model_box, ParticleFilter& filter,
+                           Likelihood& likelihood);
+
+  const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
+
+ private:
+  TrackingStepOptions options_;
+  OcclusionTest occlusion_;
+  HypothesisData hypothesis_;
+};
+
+}  // namespace mfot

@@ -1,0 +1,61 @@
+// One object's tracking step (steps in the header).
+
+#include "mfot/tracking_step.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mfot {
+
+namespace {
+
+const TrackingStepOptions& validated(const TrackingStepOptions& options) {
+  options.validate();
+  return options;
+}
+
+}  // namespace
+
+void TrackingStepOptions::validate() const {
+  if (!(std::isfinite(hypothesis.margin) && hypothesis.margin >= 0.f && hypothesis.margin <= 1.f)) {
+    throw std::invalid_argument("TrackingStepOptions.hypothesis.margin must be in [0, 1] metres, got " +
+                                std::to_string(hypothesis.margin));
+  }
+  occlusion.validate();
+  if (!(hold_occluded_share >= 0.f && hold_occluded_share <= 1.f)) {
+    throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
+                                std::to_string(hold_occluded_share));
+  }
+}
+
+TrackingStep::TrackingStep(const TrackingStepOptions& options)
+    : options_(validated(options)), occlusion_(options.occlusion) {}
+
+TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
+                                       const ObjectModel& model, const Eigen::AlignedBox3f& model_box,
+                                       ParticleFilter& filter, Likelihood& likelihood) {
+  TrackingStepResult result;
+  const Pose last = filter.estimate();
+  if (options_.hold_occluded_share > 0.f) {
+    occlusion_.set_scene(scene.positions);
+    result.occluded_share = occlusion_.occluded_share(model.cloud.positions, last);
+    if (result.occluded_share >= options_.hold_occluded_share) {
+      hypothesis_.points.clear();
+      hypothesis_.features.clear();
+      hypothesis_.colors.clear();
+      result.estimate = filter.hold();
+      result.held = true;
+      return result;
+    }
+  }
+  select_hypothesis_data(scene, scene_features, model_box, last, options_.hypothesis, hypothesis_);
+  if (options_.exclude_occluders) {
+    result.occluders_removed = occlusion_.remove_occluders(model.cloud.positions, last, hypothesis_);
+  }
+  result.hypothesis_points = hypothesis_.points.size();
+  result.estimate = filter.step(hypothesis_, likelihood);
+  return result;
+}
+
+}  // namespace mfot

@@ -1,0 +1,156 @@
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/tracking_step.hpp"
+#include "synthetic_object.hpp"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <vector>
+
+namespace mfot {
+namespace {
+
+constexpr Rgb8 kSkin{224, 172, 140};
+
+// The test box (10 x 15 x 8 cm, six face colours) 1 m in front of the camera, turned 0.2 rad, seen
+// with a hand: a skin-coloured plate 3 cm in front of its near face (inside the hypothesis margin),
+// within the box's silhouette from its left edge to x = x_edge.
+struct HandOverBox {
+  ObjectModel model = test::make_model(test::make_test_object(0.f));
+  Pose truth = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f::UnitY(), 0.2f);
+
+  ColoredCloud scene(float x_edge) const {
+    ColoredCloud cloud = test::transformed(test::make_test_object(0.5f), truth);
+    for (float x = -0.045f; x < x_edge; x += 0.005f) {
+      for (float y = -0.06f; y <= 0.06f; y += 0.005f) cloud.push_back(Eigen::Vector3f(x, y, 0.92f), kSkin);
+    }
+    return cloud;
+  }
+};
+
+TrackingStepOptions occlusion_aware() {
+  TrackingStepOptions o;
+  o.hypothesis.margin = 0.05f;
+  o.exclude_occluders = true;
+  o.hold_occluded_share = 0.6f;
+  return o;
+}
+
+ParticleFilterOptions filter_options() {
+  ParticleFilterOptions o;
+  o.num_particles = 100;
+  o.seed = 7;
+  return o;
+}
+
+TEST(TrackingStep, LeavesTheHandInFrontOutOfTheLikelihood) {
+  const HandOverBox setup;
+  const ColoredCloud scene = setup.scene(0.01f);  // the hand covers about half of the box
+  const std::vector<SmrFeature> features = compute_smr(scene.colors);
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+
+  TrackingStepOptions thesis = occlusion_aware();
+  thesis.exclude_occluders = false;
+  TrackingStep plain(thesis);
+  TrackingStep aware(occlusion_aware());
+  ParticleFilter plain_filter(filter_options());
+  ParticleFilter aware_filter(filter_options());
+  plain_filter.reset(setup.truth);
+  aware_filter.reset(setup.truth);
+  const TrackingStepResult all = plain.track(scene, features, setup.model, box, plain_filter, likelihood);
+  const TrackingStepResult kept = aware.track(scene, features, setup.model, box, aware_filter, likelihood);
+  // Same last estimate, same hypothesis region: the aware step scores the same points minus the hand's.
+  EXPECT_FALSE(kept.held);
+  EXPECT_GT(kept.occluded_share, 0.2f);
+  EXPECT_LT(kept.occluded_share, 0.6f);
+  EXPECT_GT(kept.occluders_removed, 150u);
+  EXPECT_EQ(all.occluders_removed, 0u);
+  EXPECT_EQ(all.hypothesis_points, kept.hypothesis_points + kept.occluders_removed);
+  EXPECT_EQ(kept.hypothesis_points, aware.hypothesis().points.size());
+  std::size_t hand_points = 0;
+  for (std::size_t k = 0; k < scene.size(); ++k) hand_points += scene.colors[k] == kSkin ? 1 : 0;
+  for (const Rgb8& c : aware.hypothesis().colors) EXPECT_FALSE(c == kSkin) << "a hand point was scored";
+  EXPECT_EQ(kept.occluders_removed, hand_points);  // and only those
+
+  // Tracking on: the estimate stays on the box while the hand stays over it.
+  for (int frame = 0; frame < 30; ++frame) {
+    const TrackingStepResult r = aware.track(scene, features, setup.model, box, aware_filter, likelihood);
+    EXPECT_LT(test::translation_error(r.estimate, setup.truth), 0.005f) << "frame " << frame;
+    EXPECT_LT(test::degrees(test::rotation_error(r.estimate, setup.truth)), 3.f) << "frame " << frame;
+  }
+}
+
+TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
+  const HandOverBox setup;
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStep step(occlusion_aware());
+  ParticleFilter filter(filter_options());
+  filter.reset(setup.truth);
+
+  // The hand over all of the box: only the hand is in view.
+  ColoredCloud hidden;
+  for (float x = -0.1f; x <= 0.1f; x += 0.005f) {
+    for (float y = -0.11f; y <= 0.11f; y += 0.005f) hidden.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
+  }
+  const Pose before = filter.estimate();
+  const TrackingStepResult r = step.track(hidden, compute_smr(hidden.colors), setup.model, box, filter, likelihood);
+  EXPECT_TRUE(r.held);
+  EXPECT_GE(r.occluded_share, 0.6f);
+  EXPECT_EQ(r.hypothesis_points, 0u);
+  EXPECT_TRUE(step.hypothesis().points.empty());
+  EXPECT_EQ(r.estimate.translation, before.translation);
+  EXPECT_TRUE(r.estimate.rotation.isApprox(before.rotation));
+  EXPECT_TRUE(filter.velocity().isZero());
+
+  const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
+  const TrackingStepResult back =
+      step.track(visible, compute_smr(visible.colors), setup.model, box, filter, likelihood);
+  EXPECT_FALSE(back.held);
+  EXPECT_EQ(back.occluded_share, 0.f);
+  EXPECT_EQ(back.hypothesis_points, visible.size());
+  EXPECT_LT(test::translation_error(back.estimate, setup.truth), 0.005f);
+}
+
+TEST(TrackingStep, WithoutOcclusionHandlingItIsTheThesisStep) {
+  // Both options off: exactly select_hypothesis_data + ParticleFilter::step.
+  const HandOverBox setup;
+  const ColoredCloud scene = setup.scene(0.1f);
+  const std::vector<SmrFeature> features = compute_smr(scene.colors);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStep step(TrackingStepOptions{});
+  ParticleFilter a(filter_options());
+  ParticleFilter b(filter_options());
+  a.reset(setup.truth);
+  b.reset(setup.truth);
+  HypothesisData data;
+  for (int frame = 0; frame < 3; ++frame) {
+    const TrackingStepResult r = step.track(scene, features, setup.model, model_bounding_box(setup.model), a, likelihood);
+    select_hypothesis_data(scene, features, setup.model, b.estimate(), HypothesisOptions{}, data);
+    const Pose& expected = b.step(data, likelihood);
+    EXPECT_FALSE(r.held);
+    EXPECT_EQ(r.hypothesis_points, data.points.size());
+    EXPECT_EQ(r.estimate.translation, expected.translation);
+    EXPECT_EQ(r.estimate.rotation.coeffs(), expected.rotation.coeffs());
+  }
+}
+
+TEST(TrackingStep, InvalidOptionsThrow) {
+  TrackingStepOptions o;
+  o.hold_occluded_share = 1.5f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.hypothesis.margin = -0.1f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.occlusion.window = 0.f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mfot
