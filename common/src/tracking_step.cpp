@@ -27,6 +27,10 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
                                 std::to_string(hold_occluded_share));
   }
+  if (!(max_hold_frames >= 1 && max_hold_frames <= 100000)) {
+    throw std::invalid_argument("TrackingStepOptions.max_hold_frames must be in [1, 100000], got " +
+                                std::to_string(max_hold_frames));
+  }
 }
 
 TrackingStep::TrackingStep(const TrackingStepOptions& options)
@@ -40,7 +44,12 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<cons
   if (options_.hold_occluded_share > 0.f) {
     occlusion_.set_scene(scene.positions);
     result.occluded_share = occlusion_.occluded_share(model.cloud.positions, last);
-    if (result.occluded_share >= options_.hold_occluded_share) {
+    if (result.occluded_share < options_.hold_occluded_share) {
+      held_in_row_ = 0;
+    } else if (held_in_row_ >= options_.max_hold_frames) {
+      result.hold_expired = true;
+    } else {
+      ++held_in_row_;
       hypothesis_.points.clear();
       hypothesis_.features.clear();
       hypothesis_.colors.clear();
@@ -50,7 +59,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<cons
     }
   }
   select_hypothesis_data(scene, scene_features, model_box, last, options_.hypothesis, hypothesis_);
-  if (options_.exclude_occluders) {
+  if (options_.exclude_occluders && !result.hold_expired) {
     result.occluders_removed = occlusion_.remove_occluders(model.cloud.positions, last, hypothesis_);
   }
   result.hypothesis_points = hypothesis_.points.size();

@@ -36,6 +36,7 @@ using Clock = std::chrono::steady_clock;
 struct ObjectTracker {
   LikelihoodChoice likelihood;
   std::unique_ptr<ParticleFilter> filter;
+  std::unique_ptr<TrackingStep> step;  // counts this object's holds
   Eigen::AlignedBox3f model_box;
 };
 
@@ -73,7 +74,6 @@ int run(const Options& cli) {
   std::unique_ptr<RunWriter> writer;
   std::unique_ptr<GroundTruthWriter> truth_writer;
   FittingDistanceEvaluator fitting;
-  TrackingStep tracking(tracker_config.step);  // one for all objects: it keeps no per-object state
   std::ofstream timing;  // per-frame time, compared with the baselines' (scripts/bench-baselines)
   if (!cli.out_dir.empty()) {
     writer = std::make_unique<RunWriter>(cli.out_dir);
@@ -119,7 +119,7 @@ int run(const Options& cli) {
     for (auto& [id, tracker] : trackers) {
       const ObjectModel& model = manager.objects().at(id).model;
       const TrackingStepResult step =
-          tracking.track(scene.cloud, scene.features, model, tracker.model_box, *tracker.filter,
+          tracker.step->track(scene.cloud, scene.features, model, tracker.model_box, *tracker.filter,
                          *tracker.likelihood.likelihood);
       estimates[id] = {step.estimate, tracker.filter->confidence()};
       spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
@@ -141,6 +141,7 @@ int run(const Options& cli) {
         options.seed = tracker_config.filter.seed + static_cast<std::uint64_t>(id);
         tracker.filter = std::make_unique<ParticleFilter>(options);
         tracker.filter->reset(object.pose);
+        tracker.step = std::make_unique<TrackingStep>(tracker_config.step);
       }
       tracker.model_box = model_bounding_box(object.model);
       tracker.likelihood.likelihood->set_model(object.model);

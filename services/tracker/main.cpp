@@ -110,6 +110,7 @@ class TrackerWorker {
       options.seed = config_.filter.seed + static_cast<std::uint64_t>(msg.object_id);
       filter_ = std::make_unique<ParticleFilter>(options);
       filter_->reset(pose);
+      step_.reset();
       spdlog::info("took object {} (model v{} of frame {}, {} points)", object_id_, msg.version, msg.frame_seq,
                    model.cloud.size());
       // A scene the merger had already finished when it sent this model is not ours to track.

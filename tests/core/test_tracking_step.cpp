@@ -116,6 +116,45 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
   EXPECT_LT(test::translation_error(back.estimate, setup.truth), 0.005f);
 }
 
+TEST(TrackingStep, AHoldExpiresAndTheFilterStepsOnEveryPointUntilTheOcclusionClears) {
+  // The estimate slipped 4 cm behind the box (as when an object is put down on another): the box's
+  // own surface is then in front of the model, which looks hidden for as long as the filter holds.
+  const HandOverBox setup;
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStepOptions options = occlusion_aware();
+  options.max_hold_frames = 5;
+  TrackingStep step(options);
+  ParticleFilter filter(filter_options());
+  Pose behind = setup.truth;
+  behind.translation.z() += 0.04f;
+  filter.reset(behind);
+  const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
+  const std::vector<SmrFeature> features = compute_smr(visible.colors);
+  for (int frame = 0; frame < options.max_hold_frames; ++frame) {
+    const TrackingStepResult r = step.track(visible, features, setup.model, box, filter, likelihood);
+    ASSERT_TRUE(r.held) << "frame " << frame;
+    EXPECT_FALSE(r.hold_expired);
+  }
+  const TrackingStepResult expired = step.track(visible, features, setup.model, box, filter, likelihood);
+  EXPECT_FALSE(expired.held);
+  EXPECT_TRUE(expired.hold_expired);
+  EXPECT_EQ(expired.occluders_removed, 0u);  // every point scored: the box's surface pulls the filter back
+  EXPECT_EQ(expired.hypothesis_points, visible.size());
+  float error = test::translation_error(expired.estimate, setup.truth);
+  for (int frame = 0; frame < 40 && error > 0.005f; ++frame) {
+    const TrackingStepResult r = step.track(visible, features, setup.model, box, filter, likelihood);
+    EXPECT_FALSE(r.held) << "frame " << frame;
+    error = test::translation_error(r.estimate, setup.truth);
+  }
+  EXPECT_LT(error, 0.005f);
+  // Back on the box the occlusion has cleared; a new hold can count from zero again after reset().
+  const TrackingStepResult settled = step.track(visible, features, setup.model, box, filter, likelihood);
+  EXPECT_LT(settled.occluded_share, options.hold_occluded_share);
+  EXPECT_FALSE(settled.hold_expired);
+}
+
 TEST(TrackingStep, WithoutOcclusionHandlingItIsTheThesisStep) {
   // Both options off: exactly select_hypothesis_data + ParticleFilter::step.
   const HandOverBox setup;
@@ -146,6 +185,9 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
   o.hypothesis.margin = -0.1f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.max_hold_frames = 0;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
   o.occlusion.window = 0.f;

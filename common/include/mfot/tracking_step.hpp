@@ -25,12 +25,18 @@ struct TrackingStepOptions {
   // Hypothesis points in front of the model at the last estimate (the hand over it) are left out
   // of the likelihood (OcclusionTest::remove_occluders); false = score them all (thesis).
   bool exclude_occluders = false;
+  // Holds last at most this many frames in a row [1, 100000]. A hold cannot tell a hidden object
+  // from one whose estimate slipped behind a surface (an object put down on another a few cm from
+  // where it was held): past this, the filter steps on every point in the margin, as in the
+  // thesis, until the share drops below hold_occluded_share again.
+  int max_hold_frames = 45;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
 struct TrackingStepResult {
   Pose estimate;
   bool held = false;                    // the object was hidden: the filter did not step
+  bool hold_expired = false;            // hidden for more than max_hold_frames: stepped on every point
   float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
   std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
@@ -38,12 +44,14 @@ struct TrackingStepResult {
 
 // Steps of track():
 //  1. when hold_occluded_share > 0: the model's occluded share at the last estimate; at or above
-//     it the filter holds and the step ends;
+//     it the filter holds and the step ends, unless it has held max_hold_frames in a row;
 //  2. select the hypothesis data around the last estimate (3.3);
-//  3. when exclude_occluders: remove the points in front of the model at the last estimate;
+//  3. when exclude_occluders (and the hold has not expired): remove the points in front of the
+//     model at the last estimate;
 //  4. step the filter with the likelihood on what is left.
-// Deterministic: no random draws of its own (the filter owns its generator). Non-copyable: it
-// owns the occlusion indexes and the hypothesis buffers, reused across frames.
+// One per object: it counts the object's holds. Deterministic: no random draws of its own (the
+// filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
+// buffers, reused across frames.
 class TrackingStep {
  public:
   explicit TrackingStep(const TrackingStepOptions& options = {});
@@ -59,11 +67,14 @@ class TrackingStep {
                            Likelihood& likelihood);
 
   const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
+  // Forgets the holds in a row (a new object, or its filter reset).
+  void reset() { held_in_row_ = 0; }
 
  private:
   TrackingStepOptions options_;
   OcclusionTest occlusion_;
   HypothesisData hypothesis_;
+  int held_in_row_ = 0;
 };
 
 }  // namespace mfot

@@ -73,6 +73,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
   c.step.hypothesis.margin = s.get<float>("hypothesis_margin", c.step.hypothesis.margin, 0.f, 1.f);
   c.step.hold_occluded_share = s.get<float>("hold_occluded_share", c.step.hold_occluded_share, 0.f, 1.f);
+  c.step.max_hold_frames = s.get<int>("max_hold_frames", c.step.max_hold_frames, 1, 100000);
   c.step.exclude_occluders = s.get<bool>("exclude_occluders", c.step.exclude_occluders);
   c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", c.step.occlusion.depth_margin, 0.f, 1.f);
   c.step.occlusion.window = s.get<float>("occlusion_window", c.step.occlusion.window, 1e-4f, 0.1f);
