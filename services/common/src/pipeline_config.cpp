@@ -14,8 +14,9 @@ Eigen::Vector3f vector3(const std::vector<double>& v) {
 
 }  // namespace
 
-PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
-  PreprocessorOptions o;
+PreprocessConfig load_preprocess_config(const YAML::Node& root) {
+  PreprocessConfig config;
+  PreprocessorOptions& o = config.preprocessor;
   auto s = config_section(root, "preprocess");
   o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
   o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
@@ -32,13 +33,15 @@ PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
   o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
   o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
   o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
+  o.threads = s.get<int>("threads", o.threads, 1, 64);
+  config.queue_frames = s.get<int>("queue_frames", config.queue_frames, 1, 64);
   s.finish();
   try {
     o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("preprocess: ") + e.what());
   }
-  return o;
+  return config;
 }
 
 namespace {
@@ -75,6 +78,9 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.hold_occluded_share = s.get<float>("hold_occluded_share", c.hold_occluded_share, 0.f, 1.f);
   c.occlusion.depth_margin = s.get<float>("hold_depth_margin", c.occlusion.depth_margin, 0.f, 1.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
+  c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", c.scenes.max_scenes, 1, 64);
+  c.scenes.model_wait =
+      std::chrono::milliseconds(s.get<int>("model_wait_ms", static_cast<int>(c.scenes.model_wait.count()), 1, 600000));
   s.finish();
   try {
     const ParticleFilter validate_only(c.filter);  // the filter validates its options

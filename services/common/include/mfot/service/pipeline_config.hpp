@@ -10,6 +10,7 @@
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/tracker_scene_queue.hpp"
 
 namespace mfot::service {
 
@@ -22,6 +23,15 @@ struct TrackerConfig {
   float hold_occluded_share = 0.0f;
   OcclusionOptions occlusion;
   int heartbeat_ms = 100;
+  TrackerSceneQueueOptions scenes;  // queue_scenes, model_wait_ms
+};
+
+// The `preprocess` section: the core's options and the service's frame queue.
+struct PreprocessConfig {
+  PreprocessorOptions preprocessor;
+  // Frames waiting for preprocessing, in order; beyond it the oldest is dropped. In lockstep at
+  // most capture.lockstep_window - 1 wait; 1 = always the newest (a live camera's lowest latency).
+  int queue_frames = 8;
 };
 
 struct MergerConfig {
@@ -37,7 +47,7 @@ struct MergerConfig {
 };
 
 // Every key is documented in configs/default.yaml and configs/preprocess.example.yaml.
-PreprocessorOptions load_preprocess_config(const YAML::Node& root);
+PreprocessConfig load_preprocess_config(const YAML::Node& root);
 TrackerConfig load_tracker_config(const YAML::Node& root);
 MergerConfig load_merger_config(const YAML::Node& root);
 
