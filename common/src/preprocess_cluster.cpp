@@ -185,8 +185,8 @@ void Preprocessor::cluster_voxels() {
     }
   };
   // Cells hold very different numbers of points: more pieces than threads balance the load.
-  constexpr std::size_t kPiecesPerThread = 4;
-  const std::size_t link_pieces = pool_.threads() == 1 ? 1 : kPiecesPerThread * static_cast<std::size_t>(pool_.threads());
+  const std::size_t link_pieces =
+      pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
   pool_.run(link_pieces, [cells, link_pieces, &link_cells](std::size_t p) {
     link_cells(cells * p / link_pieces, cells * (p + 1) / link_pieces);
   });

@@ -91,7 +91,10 @@ std::size_t VoxelDownsampler::downsample(std::span<const Eigen::Vector3f> positi
   // input order, so the floating-point result is fixed) stay on this thread.
   input_keys_.resize(n);
   const std::size_t pieces =
-      pool == nullptr ? 1 : std::clamp<std::size_t>(n / kMinPreprocessPointsPerPiece, 1, static_cast<std::size_t>(pool->threads()));
+      pool == nullptr || pool->threads() == 1
+          ? 1
+          : std::clamp<std::size_t>(n / kMinPreprocessPointsPerPiece, 1,
+                                    kPreprocessPiecesPerThread * static_cast<std::size_t>(pool->threads()));
   const auto compute_keys = [this, positions, n, pieces](std::size_t p) {
     for (std::size_t i = n * p / pieces; i < n * (p + 1) / pieces; ++i) input_keys_[i] = key_of(positions[i]);
   };

@@ -169,13 +169,17 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
   std::size_t count = 0;
   split_evenly(static_cast<std::size_t>(h), kMinPreprocessRowsPerPiece);
   if (pieces_.size() <= 1) {
-    crop_rows<true>(image, 0, h, 0, valid, count);
+    crop_rows(image, 0, h, PointBuffers{cropped_positions_.data(), cropped_colors_.data(), cropped_pixels_.data()}, valid,
+              count);
   } else {
-    // Count each piece of rows, place the pieces one after another, then write them.
+    // Each piece of rows writes its points to the (still unused) above-plane buffers from its
+    // first pixel on, then copies them behind the previous pieces' points.
     pool_.run(pieces_.size(), [this, &image](std::size_t p) {
       Piece& piece = pieces_[p];
-      crop_rows<false>(image, static_cast<int>(piece.begin), static_cast<int>(piece.end), 0, piece.count_a,
-                       piece.count_b);
+      const std::size_t at = piece.begin * static_cast<std::size_t>(image.width);
+      crop_rows(image, static_cast<int>(piece.begin), static_cast<int>(piece.end),
+                PointBuffers{above_positions_.data() + at, above_colors_.data() + at, above_pixels_.data() + at},
+                piece.count_a, piece.count_b);
     });
     for (Piece& piece : pieces_) {
       piece.first = count;
@@ -183,10 +187,13 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
       valid += piece.count_a;
     }
     pool_.run(pieces_.size(), [this, &image](std::size_t p) {
-      Piece& piece = pieces_[p];
-      std::size_t unused_valid = 0, unused_count = 0;
-      crop_rows<true>(image, static_cast<int>(piece.begin), static_cast<int>(piece.end), piece.first, unused_valid,
-                      unused_count);
+      const Piece& piece = pieces_[p];
+      const auto at = static_cast<std::ptrdiff_t>(piece.begin * static_cast<std::size_t>(image.width));
+      const auto n = static_cast<std::ptrdiff_t>(piece.count_b);
+      const auto first = static_cast<std::ptrdiff_t>(piece.first);
+      std::copy(above_positions_.begin() + at, above_positions_.begin() + at + n, cropped_positions_.begin() + first);
+      std::copy(above_colors_.begin() + at, above_colors_.begin() + at + n, cropped_colors_.begin() + first);
+      std::copy(above_pixels_.begin() + at, above_pixels_.begin() + at + n, cropped_pixels_.begin() + first);
     });
   }
   cropped_count_ = count;
@@ -195,24 +202,23 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
 }
 
 void Preprocessor::split_evenly(std::size_t n, std::size_t min_piece) {
-  const std::size_t pieces = std::clamp<std::size_t>(n / min_piece, 1, static_cast<std::size_t>(pool_.threads()));
+  // Several pieces per thread: a thread that wakes late (its core busy) still finds work, and the
+  // caller is not left waiting for one large piece started late.
+  const std::size_t most = pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
+  const std::size_t pieces = std::clamp<std::size_t>(n / min_piece, 1, most);
   pieces_.resize(pieces);
   for (std::size_t p = 0; p < pieces; ++p) {
     pieces_[p] = Piece{n * p / pieces, n * (p + 1) / pieces, 0, 0, 0};
   }
 }
 
-template <bool kWrite>
-void Preprocessor::crop_rows(const RgbdImageView& image, int v_begin, int v_end, std::size_t first,
+void Preprocessor::crop_rows(const RgbdImageView& image, int v_begin, int v_end, PointBuffers out,
                              std::size_t& valid_out, std::size_t& cropped_out) {
   const int w = image.width;
   const Eigen::Vector3f lo = options_.crop_min;
   const Eigen::Vector3f hi = options_.crop_max;
   const std::uint16_t* depth = image.depth_mm.data();
   const Rgb8* color = image.color.data();
-  Eigen::Vector3f* out_position = cropped_positions_.data() + first;
-  Rgb8* out_color = cropped_colors_.data() + first;
-  std::uint32_t* out_pixel = cropped_pixels_.data() + first;
   std::size_t valid = 0;
   std::size_t count = 0;
   for (int v = v_begin; v < v_end; ++v) {
@@ -227,11 +233,9 @@ void Preprocessor::crop_rows(const RgbdImageView& image, int v_begin, int v_end,
       const float x = ray_x_[static_cast<std::size_t>(u)] * z;
       const float y = ry * z;
       if (z < lo.z() || z > hi.z() || x < lo.x() || x > hi.x() || y < lo.y() || y > hi.y()) continue;
-      if constexpr (kWrite) {
-        out_position[count] = Eigen::Vector3f(x, y, z);
-        out_color[count] = color[index];
-        out_pixel[count] = static_cast<std::uint32_t>(index);
-      }
+      out.positions[count] = Eigen::Vector3f(x, y, z);
+      out.colors[count] = color[index];
+      out.pixels[count] = static_cast<std::uint32_t>(index);
       ++count;
     }
   }

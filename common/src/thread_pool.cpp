@@ -35,14 +35,16 @@ void ThreadPool::run_erased(std::size_t count, Invoke invoke, void* callable) {
     callable_ = callable;
     count_ = count;
     next_ = 0;
+    unfinished_ = count;
     error_ = nullptr;
-    busy_workers_ = static_cast<int>(workers_.size());
     ++generation_;
   }
   wake_.notify_all();
+  // A worker that is slow to wake (its core busy elsewhere) finds nothing left: the caller waits
+  // only for tasks that were started.
   take_tasks();
   std::unique_lock lock(mutex_);
-  idle_.wait(lock, [this] { return busy_workers_ == 0; });
+  done_.wait(lock, [this] { return unfinished_ == 0; });
   invoke_ = nullptr;
   callable_ = nullptr;
   if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
@@ -58,8 +60,6 @@ void ThreadPool::work_loop() {
       seen = generation_;
     }
     take_tasks();
-    std::lock_guard lock(mutex_);
-    if (--busy_workers_ == 0) idle_.notify_one();
   }
 }
 
@@ -75,15 +75,18 @@ void ThreadPool::take_tasks() {
       invoke = invoke_;
       callable = callable_;
     }
+    std::exception_ptr error;
     try {
       invoke(callable, i);
     } catch (...) {
-      std::lock_guard lock(mutex_);
-      if (!error_ || i < error_index_) {
-        error_ = std::current_exception();
-        error_index_ = i;
-      }
+      error = std::current_exception();
     }
+    std::lock_guard lock(mutex_);
+    if (error && (!error_ || i < error_index_)) {
+      error_ = error;
+      error_index_ = i;
+    }
+    if (--unfinished_ == 0) done_.notify_one();
   }
 }
 

@@ -36,6 +36,7 @@ namespace mfot {
 // Pieces of parallel preprocessing smaller than these are not worth waking a thread for (~10 us).
 inline constexpr std::size_t kMinPreprocessRowsPerPiece = 8;
 inline constexpr std::size_t kMinPreprocessPointsPerPiece = 4096;
+inline constexpr std::size_t kPreprocessPiecesPerThread = 4;
 
 // Pinhole intrinsics of the registered depth/colour image, pixels.
 struct CameraIntrinsics {
@@ -233,12 +234,17 @@ class Preprocessor {
 
  private:
   void backproject_and_crop(const RgbdImageView& image);
-  // Splits [0, n) into one piece per thread, fewer when pieces would be below min_piece, in pieces_.
+  // Splits [0, n) into kPreprocessPiecesPerThread pieces per thread (one piece with one thread),
+  // fewer when pieces would be below min_piece, in pieces_.
   void split_evenly(std::size_t n, std::size_t min_piece);
-  // Rows [v_begin, v_end) of step 1-2: counts valid and cropped pixels, and with kWrite stores the
-  // cropped points from index `first` on.
-  template <bool kWrite>
-  void crop_rows(const RgbdImageView& image, int v_begin, int v_end, std::size_t first, std::size_t& valid,
+  struct PointBuffers {
+    Eigen::Vector3f* positions;
+    Rgb8* colors;
+    std::uint32_t* pixels;
+  };
+  // Rows [v_begin, v_end) of steps 1-2: counts valid and cropped pixels and stores the cropped
+  // points at `out`.
+  void crop_rows(const RgbdImageView& image, int v_begin, int v_end, PointBuffers out, std::size_t& valid,
                  std::size_t& cropped);
   // Points [begin, end) of split_by_plane: counts band inliers and kept points, and with kWrite
   // stores the kept points from index `first` on.

@@ -45,15 +45,15 @@ class ThreadPool {
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_;
-  std::condition_variable idle_;
+  std::condition_variable done_;
   // The current call, guarded by mutex_ (tasks are handed out under it too: a task is far longer
   // than taking the lock).
   Invoke invoke_ = nullptr;
   void* callable_ = nullptr;
   std::size_t count_ = 0;
   std::size_t next_ = 0;
+  std::size_t unfinished_ = 0;  // tasks not finished yet
   std::size_t generation_ = 0;
-  int busy_workers_ = 0;
   std::size_t error_index_ = 0;
   std::exception_ptr error_;
   bool stop_ = false;

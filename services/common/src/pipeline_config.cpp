@@ -2,7 +2,9 @@
 
 #include "mfot/service/convert.hpp"
 
+#include <algorithm>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace mfot::service {
@@ -10,6 +12,13 @@ namespace mfot::service {
 namespace {
 Eigen::Vector3f vector3(const std::vector<double>& v) {
   return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+}
+
+// preprocess.threads 0: a quarter of the cores, at least 1 and at most 8. The group's other
+// processes (trackers, merger, capture) need the rest; results are the same for any count.
+int auto_preprocess_threads() {
+  const unsigned cores = std::thread::hardware_concurrency();
+  return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
 
 }  // namespace
@@ -33,7 +42,8 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
   o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
   o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
-  o.threads = s.get<int>("threads", o.threads, 1, 64);
+  const int threads = s.get<int>("threads", 0, 0, 64);
+  o.threads = threads > 0 ? threads : auto_preprocess_threads();
   config.queue_frames = s.get<int>("queue_frames", config.queue_frames, 1, 64);
   s.finish();
   try {
