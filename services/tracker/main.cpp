@@ -147,6 +147,11 @@ class TrackerWorker {
   }
 
   void report_fallbacks() {
+    if (scenes_.gaps_passed() != reported_gaps_) {
+      reported_gaps_ = scenes_.gaps_passed();
+      spdlog::warn("tracked a scene ahead of a missing one ({} times so far)", reported_gaps_);
+      status_.set_message("tracked " + std::to_string(reported_gaps_) + " scenes ahead of a missing one");
+    }
     if (scenes_.fallbacks() == reported_fallbacks_) return;
     reported_fallbacks_ = scenes_.fallbacks();
     spdlog::warn("tracked a scene without the previous frame's model after {} ms ({} times so far)",
@@ -215,6 +220,7 @@ class TrackerWorker {
   std::unique_ptr<ParticleFilter> filter_;
   TrackerSceneQueue scenes_;
   std::int64_t reported_fallbacks_ = 0;
+  std::int64_t reported_gaps_ = 0;
   std::int64_t skipped_at_heartbeat_ = 0;
   HypothesisData hypothesis_;
   OcclusionTest occlusion_{config_.occlusion};

@@ -78,17 +78,47 @@ TEST(TrackerSceneQueue, RefusesOlderAndRepeatedModelsOfTheHeldObject) {
   EXPECT_TRUE(queue.accepts_model(3, 10)) << "after a retirement the id may come back";
 }
 
-TEST(TrackerSceneQueue, AFrameMissingForEveryoneDoesNotHoldTheNextBack) {
-  // Preprocessing dropped frame 2: neither the merger nor the trackers see it, so the model that
-  // scene 3 needs is that of frame 1.
+TEST(TrackerSceneQueue, AMissingSceneIsWaitedForAWhileThenPassed) {
+  TrackerSceneQueueOptions options;
+  options.gap_wait = 200ms;
+  TrackerSceneQueue queue(options);
+  const auto t0 = Clock::time_point{} + 10s;
+  queue.model_received(1, 0);
+  queue.add_scene(scene(1));
+  queue.add_scene(scene(3));  // scene 2 was lost on the way to this worker
+  EXPECT_EQ(next_seq(queue, t0), 1);
+  queue.model_received(1, 1);
+  EXPECT_EQ(next_seq(queue, t0), -1) << "the merger sends scene 2 again";
+  queue.add_scene(scene(2));
+  EXPECT_EQ(next_seq(queue, t0 + 100ms), 2);
+  queue.model_received(1, 2);
+  EXPECT_EQ(next_seq(queue, t0 + 100ms), 3);
+  EXPECT_EQ(queue.gaps_passed(), 0);
+
+  // A frame nobody got (preprocessing dropped it): after gap_wait the next one goes ahead.
+  queue.add_scene(scene(5));
+  queue.model_received(1, 3);
+  EXPECT_EQ(next_seq(queue, t0 + 1s), -1);
+  EXPECT_EQ(next_seq(queue, t0 + 1s + 199ms), -1);
+  EXPECT_EQ(next_seq(queue, t0 + 1s + 200ms), 5);
+  EXPECT_EQ(queue.gaps_passed(), 1);
+  EXPECT_EQ(queue.fallbacks(), 0);
+}
+
+TEST(TrackerSceneQueue, AFrameTheMergerFinishedIsNoGap) {
+  // The merger finished frame 2 without this worker (its scene never reached it): scene 3 needs
+  // the model of frame 2, not scene 2.
   TrackerSceneQueue queue;
   queue.model_received(1, 0);
   queue.add_scene(scene(1));
   queue.add_scene(scene(3));
   EXPECT_EQ(next_seq(queue), 1);
-  EXPECT_EQ(next_seq(queue), -1);
   queue.model_received(1, 1);
+  queue.frame_finished(2);
+  EXPECT_EQ(next_seq(queue), -1);
+  queue.model_received(1, 2);
   EXPECT_EQ(next_seq(queue), 3);
+  EXPECT_EQ(queue.gaps_passed(), 0);
 }
 
 TEST(TrackerSceneQueue, DropsTheOldestSceneBeyondItsSizeAndSaysItSkippedIt) {
@@ -164,6 +194,9 @@ TEST(TrackerSceneQueue, ValidatesItsOptions) {
   EXPECT_THROW(TrackerSceneQueue{options}, std::invalid_argument);
   options.max_scenes = 8;
   options.model_wait = 0ms;
+  EXPECT_THROW(TrackerSceneQueue{options}, std::invalid_argument);
+  options.model_wait = 100ms;
+  options.gap_wait = -1ms;
   EXPECT_THROW(TrackerSceneQueue{options}, std::invalid_argument);
 }
 

@@ -15,6 +15,10 @@ void TrackerSceneQueueOptions::validate() const {
     throw std::invalid_argument("TrackerSceneQueueOptions.model_wait must be in [1, 600000] ms, got " +
                                 std::to_string(model_wait.count()));
   }
+  if (gap_wait.count() < 0 || gap_wait.count() > 600000) {
+    throw std::invalid_argument("TrackerSceneQueueOptions.gap_wait must be in [0, 600000] ms, got " +
+                                std::to_string(gap_wait.count()) + " ms");
+  }
   if (sequence_restart < 1) throw std::invalid_argument("TrackerSceneQueueOptions.sequence_restart must be >= 1");
 }
 
@@ -96,13 +100,22 @@ std::optional<Scene> TrackerSceneQueue::next(Clock::time_point now) {
   drop_finished();
   if (object_id_ < 0 || scenes_.empty()) return std::nullopt;
   const std::int64_t seq = scenes_.front().frame_seq;
-  if (model_frame_ < std::max(done_, finished_)) {
+  const std::int64_t previous = std::max(done_, finished_);  // the frame before s, as far as this worker knows
+  const bool model_ready = model_frame_ >= previous;
+  const bool gap = previous < seq - 1;
+  if (!model_ready || gap) {
     if (blocked_seq_ != seq) {
       blocked_seq_ = seq;
       blocked_since_ = now;
     }
-    if (now - blocked_since_ < options_.model_wait) return std::nullopt;
-    ++fallbacks_;
+    const auto waited = now - blocked_since_;
+    if (model_ready && waited >= options_.gap_wait) {
+      ++gaps_passed_;
+    } else if (waited >= options_.model_wait) {
+      ++fallbacks_;
+    } else {
+      return std::nullopt;
+    }
   }
   blocked_seq_ = -1;
   Scene scene = std::move(scenes_.front());

@@ -14,12 +14,13 @@
 //      scenes up to it are dropped; the worker's own object's model moves the model frame on
 //      (an older or repeated one is refused), a new object starts from its model's frame;
 //   3. next: the oldest scene s is released when the held model is of the frame before it, i.e.
-//      of a frame >= every earlier frame this worker tracked or skipped or knows finished (all
-//      frames before s when no scene was lost: s - 1; a frame the preprocessing dropped is
-//      missing for the merger as well, so its absence does not hold s back), or, for liveness,
-//      after model_wait, counted as a fallback. The merger's own estimate timeout normally comes
-//      first (it finishes the frame without the estimate and sends the model), so model_wait is
-//      generous: a slow but healthy tracker elsewhere in the group must never reach it.
+//      of a frame >= every earlier frame this worker tracked, skipped or knows finished (s - 1
+//      when no scene was lost). A scene whose previous frame never came waits up to gap_wait for
+//      it (the merger sends a lost scene again) before it goes ahead of it; a model that never
+//      comes is given up after model_wait (liveness), counted as a fallback. The merger's own
+//      estimate timeout normally comes first (it finishes the frame without the estimate and
+//      sends the model), so model_wait is generous: a slow but healthy tracker elsewhere in the
+//      group must never reach it. In a healthy run no scene is missing and nothing waits on time.
 // No LCM and no clock of its own: the caller passes the time.
 
 #include "mfot/service/convert.hpp"
@@ -35,6 +36,10 @@ namespace mfot::service {
 struct TrackerSceneQueueOptions {
   std::size_t max_scenes = 8;                  // queued scenes, [1, 64]; >= capture.lockstep_window
   std::chrono::milliseconds model_wait{5000};  // wait for the previous frame's model, [1 ms, 600 s]
+  // Wait for a scene missing before the oldest one, [0, 600 s] (at most model_wait takes effect):
+  // longer than the merger takes to send a lost scene again (kSceneResendInterval and a heartbeat,
+  // 200-300 ms).
+  std::chrono::milliseconds gap_wait{500};
   // A scene this many frames older than the newest one known starts a new frame sequence.
   std::int64_t sequence_restart = 100;
 
@@ -78,6 +83,7 @@ class TrackerSceneQueue {
   std::size_t size() const { return scenes_.size(); }
   std::int64_t skipped() const { return skipped_; }      // scenes dropped beyond max_scenes while holding an object
   std::int64_t fallbacks() const { return fallbacks_; }  // scenes released after model_wait without their model
+  std::int64_t gaps_passed() const { return gaps_passed_; }  // scenes released after gap_wait ahead of a lost one
 
  private:
   void drop_finished();
@@ -95,6 +101,7 @@ class TrackerSceneQueue {
   Clock::time_point blocked_since_{};
   std::int64_t skipped_ = 0;
   std::int64_t fallbacks_ = 0;
+  std::int64_t gaps_passed_ = 0;
 };
 
 }  // namespace mfot::service
