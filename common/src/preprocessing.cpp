@@ -179,17 +179,17 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
       const std::size_t at = piece.begin * static_cast<std::size_t>(image.width);
       crop_rows(image, static_cast<int>(piece.begin), static_cast<int>(piece.end),
                 PointBuffers{above_positions_.data() + at, above_colors_.data() + at, above_pixels_.data() + at},
-                piece.count_a, piece.count_b);
+                piece.tally, piece.output_count);
     });
     for (Piece& piece : pieces_) {
       piece.first = count;
-      count += piece.count_b;
-      valid += piece.count_a;
+      count += piece.output_count;
+      valid += piece.tally;
     }
     pool_.run(pieces_.size(), [this, &image](std::size_t p) {
       const Piece& piece = pieces_[p];
       const auto at = static_cast<std::ptrdiff_t>(piece.begin * static_cast<std::size_t>(image.width));
-      const auto n = static_cast<std::ptrdiff_t>(piece.count_b);
+      const auto n = static_cast<std::ptrdiff_t>(piece.output_count);
       const auto first = static_cast<std::ptrdiff_t>(piece.first);
       std::copy(above_positions_.begin() + at, above_positions_.begin() + at + n, cropped_positions_.begin() + first);
       std::copy(above_colors_.begin() + at, above_colors_.begin() + at + n, cropped_colors_.begin() + first);
@@ -278,12 +278,12 @@ float Preprocessor::split_by_plane(const TablePlane& plane) {
   } else {
     pool_.run(pieces_.size(), [this, &plane](std::size_t p) {
       Piece& piece = pieces_[p];
-      split_points<false>(plane, piece.begin, piece.end, 0, piece.count_a, piece.count_b);
+      split_points<false>(plane, piece.begin, piece.end, 0, piece.tally, piece.output_count);
     });
     for (Piece& piece : pieces_) {
       piece.first = kept;
-      kept += piece.count_b;
-      inliers += piece.count_a;
+      kept += piece.output_count;
+      inliers += piece.tally;
     }
     pool_.run(pieces_.size(), [this, &plane](std::size_t p) {
       Piece& piece = pieces_[p];

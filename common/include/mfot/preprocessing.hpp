@@ -260,13 +260,15 @@ class Preprocessor {
 
   PreprocessorOptions options_;
   ThreadPool pool_;
-  // Per piece of a parallel step: its counts, then where its output starts.
+  // A piece [begin, end) of rows or points of a parallel step: how many points it outputs, where
+  // its output starts once the pieces before it are placed, and a count it keeps besides (valid
+  // depth pixels, plane inliers).
   struct Piece {
     std::size_t begin = 0;
     std::size_t end = 0;
     std::size_t first = 0;
-    std::size_t count_a = 0;
-    std::size_t count_b = 0;
+    std::size_t tally = 0;
+    std::size_t output_count = 0;
   };
   std::vector<Piece> pieces_;
   PlaneFitter plane_fitter_;
