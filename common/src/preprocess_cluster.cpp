@@ -3,11 +3,15 @@
 // limits), computed for speed as a union-find over a grid of tolerance-sized cells: each pair of
 // points in the same or adjacent cells is tested once (13 forward neighbour cells), on
 // cell-contiguous copies of the positions, instead of one sorted radius search per point.
+// With threads, the cells' neighbour tests run in parallel on a concurrent union-find (links
+// always hang the higher root under the lower one, by compare-and-swap): whatever the order of
+// the unions, every component ends with its lowest point as root, so labels are the same.
 
 #include "mfot/preprocessing.hpp"
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 
 namespace mfot {
@@ -49,24 +53,33 @@ constexpr std::array<std::array<int, 3>, 13> kForwardOffsets = {{{1, -1, -1},
                                                                  {0, 1, 1},
                                                                  {0, 0, 1}}};
 
+// Union-find on a plain array through std::atomic_ref, so the neighbour tests of different cells
+// may run on different threads. A parent never has a higher index than its child, and a node that
+// stops being a root never becomes one again, so path halving may store any ancestor it read.
 int find_root(std::vector<int>& parent, int i) {
-  while (parent[static_cast<std::size_t>(i)] != i) {
-    const int grandparent = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(i)])];
-    parent[static_cast<std::size_t>(i)] = grandparent;  // path halving
+  for (;;) {
+    const int p = std::atomic_ref<int>(parent[static_cast<std::size_t>(i)]).load(std::memory_order_acquire);
+    if (p == i) return i;
+    const int grandparent = std::atomic_ref<int>(parent[static_cast<std::size_t>(p)]).load(std::memory_order_acquire);
+    if (grandparent != p) {
+      std::atomic_ref<int>(parent[static_cast<std::size_t>(i)]).store(grandparent, std::memory_order_release);
+    }
     i = grandparent;
   }
-  return i;
 }
 
 void unite(std::vector<int>& parent, int a, int b) {
-  a = find_root(parent, a);
-  b = find_root(parent, b);
-  if (a == b) return;
-  // The lower index becomes the root, so roots do not depend on the order of unions.
-  if (a < b) {
-    parent[static_cast<std::size_t>(b)] = a;
-  } else {
-    parent[static_cast<std::size_t>(a)] = b;
+  for (;;) {
+    a = find_root(parent, a);
+    b = find_root(parent, b);
+    if (a == b) return;
+    // The lower index becomes the root, so roots do not depend on the order of unions.
+    if (a > b) std::swap(a, b);
+    int expected = b;  // b may have been linked meanwhile: then find its root again
+    if (std::atomic_ref<int>(parent[static_cast<std::size_t>(b)])
+            .compare_exchange_strong(expected, a, std::memory_order_acq_rel)) {
+      return;
+    }
   }
 }
 
@@ -98,10 +111,19 @@ void Preprocessor::cluster_voxels() {
   cell_coords_.clear();
   cell_start_.clear();
   point_cell_.resize(n);
+  point_cell_coords_.resize(n);
   const float inv_cell = 1.f / options_.cluster_tolerance;
+  split_evenly(n, kMinPreprocessPointsPerPiece);
+  pool_.run(pieces_.size(), [this, inv_cell](std::size_t p) {
+    for (std::size_t i = pieces_[p].begin; i < pieces_[p].end; ++i) {
+      const Eigen::Vector3f scaled =
+          (scene_.positions[i] * inv_cell).array().floor().cwiseMax(kCellMin).cwiseMin(kCellMax);
+      point_cell_coords_[i] = scaled.cast<int>();
+    }
+  });
+  // Dense cell ids in order of first appearance: on this thread.
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3f scaled = (points[i] * inv_cell).array().floor().cwiseMax(kCellMin).cwiseMin(kCellMax);
-    const Eigen::Vector3i cell = scaled.cast<int>();
+    const Eigen::Vector3i cell = point_cell_coords_[i];
     const std::uint64_t key = pack_cell(cell);
     std::size_t slot = cell_hash(key) & cell_slot_mask_;
     while (cell_slot_keys_[slot] != kEmptyCell && cell_slot_keys_[slot] != key) slot = (slot + 1) & cell_slot_mask_;
@@ -149,17 +171,25 @@ void Preprocessor::cluster_voxels() {
       }
     }
   };
-  for (std::size_t c = 0; c < cells; ++c) {
-    const int begin = cell_start_[c];
-    const int end = cell_start_[c + 1];
-    link_ranges(begin, end, begin, end, true);
-    for (const auto& offset : kForwardOffsets) {
-      const int neighbour = find_cluster_cell(cell_coords_[c] + Eigen::Vector3i(offset[0], offset[1], offset[2]));
-      if (neighbour < 0) continue;
-      link_ranges(begin, end, cell_start_[static_cast<std::size_t>(neighbour)],
-                  cell_start_[static_cast<std::size_t>(neighbour) + 1], false);
+  const auto link_cells = [this, &link_ranges](std::size_t first, std::size_t last) {
+    for (std::size_t c = first; c < last; ++c) {
+      const int begin = cell_start_[c];
+      const int end = cell_start_[c + 1];
+      link_ranges(begin, end, begin, end, true);
+      for (const auto& offset : kForwardOffsets) {
+        const int neighbour = find_cluster_cell(cell_coords_[c] + Eigen::Vector3i(offset[0], offset[1], offset[2]));
+        if (neighbour < 0) continue;
+        link_ranges(begin, end, cell_start_[static_cast<std::size_t>(neighbour)],
+                    cell_start_[static_cast<std::size_t>(neighbour) + 1], false);
+      }
     }
-  }
+  };
+  // Cells hold very different numbers of points: more pieces than threads balance the load.
+  const std::size_t link_pieces =
+      pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
+  pool_.run(link_pieces, [cells, link_pieces, &link_cells](std::size_t p) {
+    link_cells(cells * p / link_pieces, cells * (p + 1) / link_pieces);
+  });
 
   // Component sizes at their roots, then labels in order of the roots (lowest point index).
   component_size_.assign(n, 0);

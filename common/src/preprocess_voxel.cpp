@@ -60,7 +60,7 @@ int VoxelDownsampler::find_or_insert(std::uint64_t key, std::uint32_t source_id)
 }
 
 std::size_t VoxelDownsampler::downsample(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
-                                         std::span<const std::uint32_t> source_ids) {
+                                         std::span<const std::uint32_t> source_ids, ThreadPool* pool) {
   if (colors.size() != positions.size() || source_ids.size() != positions.size()) {
     throw std::invalid_argument("VoxelDownsampler::downsample: colors and source_ids must have the positions' length");
   }
@@ -87,13 +87,30 @@ std::size_t VoxelDownsampler::downsample(std::span<const Eigen::Vector3f> positi
   counts_.clear();
   voxel_of_input_.resize(n);
 
+  // Keys are independent per point; voxel numbering (first met in input order) and the sums (in
+  // input order, so the floating-point result is fixed) stay on this thread.
+  input_keys_.resize(n);
+  const std::size_t pieces =
+      pool == nullptr || pool->threads() == 1
+          ? 1
+          : std::clamp<std::size_t>(n / kMinPreprocessPointsPerPiece, 1,
+                                    kPreprocessPiecesPerThread * static_cast<std::size_t>(pool->threads()));
+  const auto compute_keys = [this, positions, n, pieces](std::size_t p) {
+    for (std::size_t i = n * p / pieces; i < n * (p + 1) / pieces; ++i) input_keys_[i] = key_of(positions[i]);
+  };
+  if (pieces > 1) {
+    pool->run(pieces, compute_keys);
+  } else {
+    compute_keys(0);
+  }
+
   // Raster-ordered input visits each voxel in runs of neighbouring pixels: the previous key
   // saves most table probes.
   std::uint64_t previous_key = ~std::uint64_t{0};
   int previous_voxel = -1;
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = positions[i];
-    const std::uint64_t key = key_of(p);
+    const std::uint64_t key = input_keys_[i];
     if (key != previous_key) {
       previous_key = key;
       previous_voxel = find_or_insert(key, source_ids[i]);

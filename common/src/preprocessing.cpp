@@ -51,10 +51,12 @@ void PreprocessorOptions::validate() const {
   require(cluster_max_size >= 1, "cluster_max_size", ">= 1");
   require(cluster_min_size >= 1 && cluster_min_size <= cluster_max_size, "cluster_min_size",
           "in [1, cluster_max_size]");
+  require(threads >= 1 && threads <= 64, "threads", "in [1, 64]");
 }
 
 Preprocessor::Preprocessor(PreprocessorOptions options)
     : options_((options.validate(), options)),
+      pool_(options_.threads),
       plane_fitter_(options_.plane_fit),
       voxels_(options_.voxel_size) {}
 
@@ -84,12 +86,20 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image) {
                         : std::span<const std::uint32_t>(above_pixels_.data(), above_count_);
   stats_.above_plane = kept_positions.size();
 
-  const std::size_t voxel_count = voxels_.downsample(kept_positions, kept_colors, kept_pixels);
+  const std::size_t voxel_count = voxels_.downsample(kept_positions, kept_colors, kept_pixels, &pool_);
   stats_.voxels = voxel_count;
 
-  std::fill(pixel_voxel_.begin(), pixel_voxel_.end(), -1);
-  const std::span<const int> voxel_of_point = voxels_.voxel_of_input();
-  for (std::size_t i = 0; i < kept_pixels.size(); ++i) pixel_voxel_[kept_pixels[i]] = voxel_of_point[i];
+  // Kept points lie on distinct pixels: the pieces write disjoint entries.
+  split_evenly(pixel_voxel_.size(), kMinPreprocessPointsPerPiece);
+  pool_.run(pieces_.size(), [this](std::size_t p) {
+    std::fill(pixel_voxel_.begin() + static_cast<std::ptrdiff_t>(pieces_[p].begin),
+              pixel_voxel_.begin() + static_cast<std::ptrdiff_t>(pieces_[p].end), -1);
+  });
+  split_evenly(kept_pixels.size(), kMinPreprocessPointsPerPiece);
+  pool_.run(pieces_.size(), [this, &kept_pixels](std::size_t p) {
+    const std::span<const int> voxel_of_point = voxels_.voxel_of_input();
+    for (std::size_t i = pieces_[p].begin; i < pieces_[p].end; ++i) pixel_voxel_[kept_pixels[i]] = voxel_of_point[i];
+  });
 
   scene_.plane = plane_;
   scene_.positions.assign(voxels_.positions().begin(), voxels_.positions().end());
@@ -155,16 +165,63 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
   }
   pixel_voxel_.resize(pixels);
 
+  std::size_t valid = 0;
+  std::size_t count = 0;
+  split_evenly(static_cast<std::size_t>(h), kMinPreprocessRowsPerPiece);
+  if (pieces_.size() <= 1) {
+    crop_rows(image, 0, h, PointBuffers{cropped_positions_.data(), cropped_colors_.data(), cropped_pixels_.data()}, valid,
+              count);
+  } else {
+    // Each piece of rows writes its points to the (still unused) above-plane buffers from its
+    // first pixel on, then copies them behind the previous pieces' points.
+    pool_.run(pieces_.size(), [this, &image](std::size_t p) {
+      Piece& piece = pieces_[p];
+      const std::size_t at = piece.begin * static_cast<std::size_t>(image.width);
+      crop_rows(image, static_cast<int>(piece.begin), static_cast<int>(piece.end),
+                PointBuffers{above_positions_.data() + at, above_colors_.data() + at, above_pixels_.data() + at},
+                piece.tally, piece.output_count);
+    });
+    for (Piece& piece : pieces_) {
+      piece.first = count;
+      count += piece.output_count;
+      valid += piece.tally;
+    }
+    pool_.run(pieces_.size(), [this, &image](std::size_t p) {
+      const Piece& piece = pieces_[p];
+      const auto at = static_cast<std::ptrdiff_t>(piece.begin * static_cast<std::size_t>(image.width));
+      const auto n = static_cast<std::ptrdiff_t>(piece.output_count);
+      const auto first = static_cast<std::ptrdiff_t>(piece.first);
+      std::copy(above_positions_.begin() + at, above_positions_.begin() + at + n, cropped_positions_.begin() + first);
+      std::copy(above_colors_.begin() + at, above_colors_.begin() + at + n, cropped_colors_.begin() + first);
+      std::copy(above_pixels_.begin() + at, above_pixels_.begin() + at + n, cropped_pixels_.begin() + first);
+    });
+  }
+  cropped_count_ = count;
+  stats_.valid_depth = valid;
+  stats_.cropped = count;
+}
+
+void Preprocessor::split_evenly(std::size_t n, std::size_t min_piece) {
+  // Several pieces per thread: a thread that wakes late (its core busy) still finds work, and the
+  // caller is not left waiting for one large piece started late.
+  const std::size_t most = pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
+  const std::size_t pieces = std::clamp<std::size_t>(n / min_piece, 1, most);
+  pieces_.resize(pieces);
+  for (std::size_t p = 0; p < pieces; ++p) {
+    pieces_[p] = Piece{n * p / pieces, n * (p + 1) / pieces, 0, 0, 0};
+  }
+}
+
+void Preprocessor::crop_rows(const RgbdImageView& image, int v_begin, int v_end, PointBuffers out,
+                             std::size_t& valid_out, std::size_t& cropped_out) {
+  const int w = image.width;
   const Eigen::Vector3f lo = options_.crop_min;
   const Eigen::Vector3f hi = options_.crop_max;
   const std::uint16_t* depth = image.depth_mm.data();
   const Rgb8* color = image.color.data();
-  Eigen::Vector3f* out_position = cropped_positions_.data();
-  Rgb8* out_color = cropped_colors_.data();
-  std::uint32_t* out_pixel = cropped_pixels_.data();
   std::size_t valid = 0;
   std::size_t count = 0;
-  for (int v = 0; v < h; ++v) {
+  for (int v = v_begin; v < v_end; ++v) {
     const float ry = ray_y_[static_cast<std::size_t>(v)];
     const std::size_t row = static_cast<std::size_t>(v) * static_cast<std::size_t>(w);
     for (int u = 0; u < w; ++u) {
@@ -176,34 +233,63 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
       const float x = ray_x_[static_cast<std::size_t>(u)] * z;
       const float y = ry * z;
       if (z < lo.z() || z > hi.z() || x < lo.x() || x > hi.x() || y < lo.y() || y > hi.y()) continue;
-      out_position[count] = Eigen::Vector3f(x, y, z);
-      out_color[count] = color[index];
-      out_pixel[count] = static_cast<std::uint32_t>(index);
+      out.positions[count] = Eigen::Vector3f(x, y, z);
+      out.colors[count] = color[index];
+      out.pixels[count] = static_cast<std::uint32_t>(index);
       ++count;
     }
   }
-  cropped_count_ = count;
-  stats_.valid_depth = valid;
-  stats_.cropped = count;
+  valid_out = valid;
+  cropped_out = count;
 }
 
-float Preprocessor::split_by_plane(const TablePlane& plane) {
+template <bool kWrite>
+void Preprocessor::split_points(const TablePlane& plane, std::size_t begin, std::size_t end, std::size_t first,
+                                std::size_t& inliers_out, std::size_t& kept_out) {
   const Eigen::Vector3f normal = plane.coefficients.head<3>();
   const float offset = plane.coefficients[3];
   const float band = options_.plane_fit.inlier_distance;
   const float margin = options_.plane_margin;
   std::size_t inliers = 0;
   std::size_t kept = 0;
-  for (std::size_t i = 0; i < cropped_count_; ++i) {
+  for (std::size_t i = begin; i < end; ++i) {
     const Eigen::Vector3f& p = cropped_positions_[i];
     const float distance = normal.dot(p) + offset;
     inliers += std::abs(distance) < band ? 1 : 0;
     if (distance > margin) {
-      above_positions_[kept] = p;
-      above_colors_[kept] = cropped_colors_[i];
-      above_pixels_[kept] = cropped_pixels_[i];
+      if constexpr (kWrite) {
+        above_positions_[first + kept] = p;
+        above_colors_[first + kept] = cropped_colors_[i];
+        above_pixels_[first + kept] = cropped_pixels_[i];
+      }
       ++kept;
     }
+  }
+  inliers_out = inliers;
+  kept_out = kept;
+}
+
+float Preprocessor::split_by_plane(const TablePlane& plane) {
+  std::size_t inliers = 0;
+  std::size_t kept = 0;
+  split_evenly(cropped_count_, kMinPreprocessPointsPerPiece);
+  if (pieces_.size() <= 1) {
+    split_points<true>(plane, 0, cropped_count_, 0, inliers, kept);
+  } else {
+    pool_.run(pieces_.size(), [this, &plane](std::size_t p) {
+      Piece& piece = pieces_[p];
+      split_points<false>(plane, piece.begin, piece.end, 0, piece.tally, piece.output_count);
+    });
+    for (Piece& piece : pieces_) {
+      piece.first = kept;
+      kept += piece.output_count;
+      inliers += piece.tally;
+    }
+    pool_.run(pieces_.size(), [this, &plane](std::size_t p) {
+      Piece& piece = pieces_[p];
+      std::size_t unused_inliers = 0, unused_kept = 0;
+      split_points<true>(plane, piece.begin, piece.end, piece.first, unused_inliers, unused_kept);
+    });
   }
   above_count_ = kept;
   return cropped_count_ == 0 ? 0.f : static_cast<float>(inliers) / static_cast<float>(cropped_count_);

@@ -1,8 +1,9 @@
 // mfot-capture: the pipeline's input. Reads registered RGB-D frames from a source (the live
 // simulator, a TUM RGB-D folder, an OpenNI2 .oni recording or a live OpenNI2 camera), encodes
 // them (depth raw/zlib, colour raw/JPEG/PNG) and publishes frame_t on MFOT_FRAME, paced in real
-// time by the source timestamps, as fast as possible, or in lockstep with the pipeline (the next
-// frame only after poses_t for the previous one arrived on MFOT_POSES). Ground truth of the
+// time by the source timestamps, as fast as possible, or in lockstep with the pipeline (at most
+// capture.lockstep_window frames whose poses_t has not arrived on MFOT_POSES; window 1: the next
+// frame only after the previous frame's poses). Ground truth of the
 // simulator (or of a rendered TUM folder) is written to --groundtruth-dir for offline scoring.
 // Section `capture` of the config; the command line overrides it.
 //
@@ -189,6 +190,7 @@ class CaptureService {
         source_name_(source->name()),
         source_live_(source->live()),
         schedule_(settings_.speed),
+        gate_(settings_.lockstep_window),
         status_(lcm, "capture", 0, source->kind()),
         reader_(std::move(source), settings_.start_frame, settings_.loop, settings_.encoding) {
     if (settings_.rate == RateMode::kLockstep) lcm_.subscribe(kPoses, &CaptureService::on_poses, this);
@@ -198,17 +200,21 @@ class CaptureService {
   int run() {
     spdlog::info("publishing {} on {} ({} rate{}, depth {}, colour {})", source_name_, kFrame,
                  to_string(settings_.rate),
-                 settings_.rate == RateMode::kRealtime ? fmt::format(", speed {}", settings_.speed) : "",
+                 settings_.rate == RateMode::kRealtime   ? fmt::format(", speed {}", settings_.speed)
+                 : settings_.rate == RateMode::kLockstep ? fmt::format(", window {}", settings_.lockstep_window)
+                                                         : "",
                  service::to_string(settings_.encoding.depth), service::to_string(settings_.encoding.color));
     while (!service::stop_requested()) {
       if (settings_.max_frames > 0 && seq_ >= settings_.max_frames) {
         spdlog::info("published --max-frames {} frames; exiting", settings_.max_frames);
+        if (!drain()) break;
         return finish("published --max-frames " + std::to_string(settings_.max_frames) + " frames", 0);
       }
       std::optional<SourceReader::Result> result = wait_for_source();
       if (!result) break;
       if (std::holds_alternative<SourceReader::Ended>(*result)) {
         spdlog::info("{} ended: {} frames published; exiting", source_name_, seq_);
+        if (!drain()) break;
         return finish("source ended after " + std::to_string(seq_) + " frames", 0);
       }
       if (const auto* failed = std::get_if<SourceReader::Failed>(&*result)) {
@@ -233,7 +239,10 @@ class CaptureService {
       publish(item, message);
       status_.frame_done(read_ms + milliseconds_since(publish_start));
       status_.tick();
-      if (settings_.rate == RateMode::kLockstep && !wait_for_pipeline()) break;
+      if (settings_.rate == RateMode::kLockstep) {
+        gate_.published(seq_, Clock::now());
+        if (!wait_for_pipeline(false)) break;
+      }
       ++seq_;
       // Let other work (status, poses of earlier frames) through without blocking.
       if (!service::handle_for(lcm_, 0)) {
@@ -320,19 +329,21 @@ class CaptureService {
     return false;
   }
 
-  bool wait_for_pipeline() {
-    gate_.published(seq_);
-    const auto deadline =
-        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settings_.lockstep_timeout_s));
-    while (!gate_.released()) {
+  // Serves LCM until the gate lets the next frame out, or with `all` until every frame in flight
+  // is answered; a frame unanswered for lockstep_timeout_s is given up with a warning. False when
+  // a stop was requested.
+  bool wait_for_pipeline(bool all) {
+    const auto timeout =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settings_.lockstep_timeout_s));
+    while (all ? !gate_.drained() : !gate_.can_publish()) {
       if (service::stop_requested()) return false;
-      if (Clock::now() >= deadline) {
+      if (Clock::now() - *gate_.oldest_published_at() >= timeout) {
         ++lockstep_timeouts_;
-        spdlog::warn("lockstep: no poses for frame seq {} within {} s on {}; continuing ({} timeouts so far)", seq_,
-                     settings_.lockstep_timeout_s, kPoses, lockstep_timeouts_);
-        status_.set_message("lockstep timeout at seq " + std::to_string(seq_));
-        gate_.abandon();
-        break;
+        spdlog::warn("lockstep: no poses for frame seq {} within {} s on {}; continuing ({} timeouts so far)",
+                     *gate_.oldest(), settings_.lockstep_timeout_s, kPoses, lockstep_timeouts_);
+        status_.set_message("lockstep timeout at seq " + std::to_string(*gate_.oldest()));
+        gate_.abandon_oldest();
+        continue;
       }
       if (!service::handle_for(lcm_, 20)) {
         spdlog::error("LCM receive failed; stopping");
@@ -342,6 +353,10 @@ class CaptureService {
     }
     return true;
   }
+
+  // In lockstep, the frames still in flight get their poses before the service ends, so the group
+  // has finished every frame when capture exits. False when a stop was requested.
+  bool drain() { return settings_.rate != RateMode::kLockstep || wait_for_pipeline(true); }
 
   void on_poses(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
     poses_t poses;
@@ -455,6 +470,8 @@ int main(int argc, char** argv) {
   auto* o_speed = app.add_option("--speed", cli.speed, "realtime playback speed factor (0, 100]");
   auto* o_timeout = app.add_option("--lockstep-timeout", cli.lockstep_timeout_s,
                                    "lockstep: seconds to wait for the poses of a frame before warning and moving on");
+  auto* o_window = app.add_option("--lockstep-window", cli.lockstep_window,
+                                  "lockstep: frames in flight without poses [1, 8]");
   auto* o_max = app.add_option("--max-frames", cli.max_frames, "frames to publish, 0 = unlimited");
   auto* o_start = app.add_option("--start-frame", cli.start_frame, "first source frame");
   auto* o_loop = app.add_flag("--loop", cli.loop, "restart a finite source at its end");
@@ -485,6 +502,7 @@ int main(int argc, char** argv) {
     if (given(o_rate)) settings.rate = parse_rate_mode(rate);
     if (given(o_speed)) settings.speed = cli.speed;
     if (given(o_timeout)) settings.lockstep_timeout_s = cli.lockstep_timeout_s;
+    if (given(o_window)) settings.lockstep_window = cli.lockstep_window;
     if (given(o_max)) settings.max_frames = cli.max_frames;
     if (given(o_start)) settings.start_frame = cli.start_frame;
     if (given(o_loop)) settings.loop = cli.loop;

@@ -57,7 +57,7 @@ int run(const Options& cli) {
   }
   if (cli.max_frames > 0) capture.max_frames = cli.max_frames;
   capture.validate();
-  const PreprocessorOptions preprocess_options = load_preprocess_config(root);
+  const PreprocessorOptions preprocess_options = load_preprocess_config(root).preprocessor;
   TrackerConfig tracker_config = load_tracker_config(root);
   if (!cli.backend.empty()) {
     tracker_config.likelihood.backend = cli.backend == "cuda"             ? LikelihoodBackend::kCuda

@@ -40,8 +40,9 @@ using Clock = std::chrono::steady_clock;
 // disagrees with the assignment afterwards means the model (or the retirement) was lost.
 constexpr std::chrono::milliseconds kModelInFlight{200};
 // A heartbeat arriving this long after a scene, from a worker that has not finished that frame,
-// means the worker never got the scene (a worker heartbeats only between frames). Sending it
-// again is harmless: a worker that has it already skips the repeat.
+// means the worker never got the scene, or the model of the frame before, which it waits for
+// (a worker heartbeats only between frames). Sending both again is harmless: a worker that has
+// them already skips the repeats.
 constexpr std::chrono::milliseconds kSceneInFlight{50};
 // A scene is sent again at most this often and this many times: a worker that is merely slow
 // skips the repeats; past them the estimate timeout decides.
@@ -256,26 +257,32 @@ class Merger {
     const std::int64_t seq = next.scene.frame_seq;
     const auto& got = estimates_[seq];
     bool complete = true;
-    bool resend = false;
+    lagging_.clear();
+    // Trackers could work on this frame only once the frame before was finished.
+    const auto sent = std::max(next.sent, last_finish_);
     for (const auto& [object_id, worker_id] : owner_) {
       if (got.count(object_id)) continue;
       const auto progress = progress_.find(object_id);
       if (progress != progress_.end() && progress->second >= seq) continue;  // lost, or skipped
       complete = false;
       const Worker& w = workers_.at(worker_id);
-      resend = resend || (w.last_frame_seq < seq && w.last_seen > next.sent + kSceneInFlight &&
-                          now - next.sent > kSceneResendInterval);
+      if (w.last_frame_seq < seq && w.last_seen > sent + kSceneInFlight && now - sent > kSceneResendInterval) {
+        lagging_.emplace_back(object_id, worker_id);
+      }
     }
-    if (!complete && resend && next.resends < kMaxSceneResends) {
-      spdlog::info("a worker did not get the scene of frame {}; sending it again", seq);
+    if (!complete && !lagging_.empty() && next.resends < kMaxSceneResends) {
+      spdlog::info("a worker did not get the scene of frame {} or the model before it; sending them again", seq);
+      for (const auto& [object_id, worker_id] : lagging_) publish_model(object_id, worker_id);
       lcm_.publish(channel::kScene, next.message.data(), static_cast<unsigned>(next.message.size()));
       next.sent = now;
       ++next.resends;
     }
-    const bool timed_out = now - next.arrived > std::chrono::milliseconds(config_.estimate_timeout_ms);
+    const auto waiting_since = std::max(next.arrived, last_finish_);  // not sent: resends do not extend it
+    const bool timed_out = now - waiting_since > std::chrono::milliseconds(config_.estimate_timeout_ms);
     if (!complete && !timed_out) return false;
     finish_frame(next, now);
     pending_.pop_front();
+    last_finish_ = Clock::now();
     return true;
   }
 
@@ -433,6 +440,10 @@ class Merger {
   // Declared after what its jobs use, so it is destroyed (finishing them) first.
   std::unique_ptr<BackgroundQueue> outputs_;
   std::deque<PendingScene> pending_;
+  // When the last frame was finished: the next frame's estimates can come only after it (the
+  // trackers wait for its models), so its estimate timeout runs from then or its arrival.
+  Clock::time_point last_finish_{};
+  std::vector<std::pair<std::int32_t, std::int32_t>> lagging_;  // (object, worker) that may lack the scene or model
   std::map<std::int64_t, std::map<std::int32_t, ObjectEstimate>> estimates_;  // frame -> object -> estimate
   std::map<std::int32_t, Worker> workers_;
   std::map<std::int32_t, std::int32_t> owner_;  // object -> worker

@@ -150,7 +150,7 @@ int run(const Options& cli) {
   }
   if (cli.max_frames > 0) capture.max_frames = cli.max_frames;
   capture.validate();
-  const PreprocessorOptions preprocess_options = load_preprocess_config(root);
+  const PreprocessorOptions preprocess_options = load_preprocess_config(root).preprocessor;
   const MergerConfig merger_config = load_merger_config(root);
   const BaselineConfig baseline = load_baseline_config(cli.baseline_config_path);
   std::srand(baseline.seed);  // the one generator of PCL's tracker that can be seeded (see the top)

@@ -1,8 +1,11 @@
 // mfot-preprocess: frame -> scene cloud (thesis chapter 4 preprocessing, see
 // mfot/preprocessing.hpp). Subscribes frame_t on MFOT_FRAME, runs the Preprocessor (crop, table
 // removal, 5 mm voxels, Euclidean clusters) and publishes scene_cloud_t on MFOT_SCENE. Frames
-// that arrive while one is processed are replaced by the newest (counted as dropped); malformed
-// frames are counted and dropped.
+// that arrive while one is processed wait in order (in lockstep with a window of several frames,
+// the next frames are preprocessed while the trackers and the merger work on earlier ones); beyond
+// preprocess.queue_frames the oldest is dropped (counted). Malformed frames are counted and
+// dropped. With preprocess.threads >= 2 depth and colour decode side by side and the
+// Preprocessor splits its work over that many threads (the same scene for any count).
 
 #include "mfot/frame_t.hpp"
 #include "mfot/preprocessing.hpp"
@@ -18,6 +21,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <deque>
 #include <string>
 #include <utility>
 
@@ -28,8 +32,12 @@ using Clock = std::chrono::steady_clock;
 
 class PreprocessService {
  public:
-  PreprocessService(lcm::LCM& lcm, const PreprocessorOptions& options)
-      : lcm_(lcm), preprocessor_(options), status_(lcm, "preprocess", 0, "cpu") {
+  PreprocessService(lcm::LCM& lcm, const PreprocessConfig& config)
+      : lcm_(lcm),
+        preprocessor_(config.preprocessor),
+        decode_pool_(config.preprocessor.threads >= 2 ? 2 : 1),
+        queue_frames_(static_cast<std::size_t>(config.queue_frames)),
+        status_(lcm, "preprocess", 0, "cpu") {
     lcm_.subscribe(channel::kFrame, &PreprocessService::on_frame, this);
   }
 
@@ -40,13 +48,15 @@ class PreprocessService {
         spdlog::error("LCM receive failed; stopping");
         break;
       }
-      // Drain what is queued, then work on the newest frame only.
-      int queued = 0;
-      while (lcm_.handleTimeout(0) > 0) ++queued;
-      status_.set_queue_depth(queued);
-      if (has_pending_) {
-        has_pending_ = false;
-        process(pending_);
+      // Drain what is queued, then work on the oldest frame (one at a time, so frames that
+      // arrive meanwhile join the queue in order).
+      while (lcm_.handleTimeout(0) > 0) {
+      }
+      status_.set_queue_depth(static_cast<int>(pending_.size()));
+      if (!pending_.empty()) {
+        process(pending_.front());
+        spare_ = std::move(pending_.front());  // keeps its buffers' capacity for the next frame
+        pending_.pop_front();
       }
       status_.tick();
     }
@@ -54,20 +64,20 @@ class PreprocessService {
 
  private:
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
-    if (!decode_message(rbuf, chan, incoming_, status_.malformed())) return;
-    if (has_pending_) {
+    if (!decode_message(rbuf, chan, spare_, status_.malformed())) return;
+    pending_.push_back(std::move(spare_));
+    if (pending_.size() > queue_frames_) {
+      pending_.pop_front();
       ++dropped_;
-      status_.set_message("dropped " + std::to_string(dropped_) + " frames (newest processed)");
+      status_.set_message("dropped " + std::to_string(dropped_) + " frames (more than preprocess.queue_frames waited)");
     }
-    std::swap(incoming_, pending_);  // keeps both buffers' capacity
-    has_pending_ = true;
   }
 
   void process(const frame_t& message) {
     const auto start = Clock::now();
     Frame frame;
     try {
-      frame = decode_frame(message);
+      frame = decode_frame(message, FrameParts::kDepthAndColor, &decode_pool_);
     } catch (const FrameCodecError& e) {
       status_.malformed().record(channel::kFrame, "undecodable frame", e.what());
       return;
@@ -122,10 +132,11 @@ class PreprocessService {
 
   lcm::LCM& lcm_;
   Preprocessor preprocessor_;
+  mfot::ThreadPool decode_pool_;
+  std::size_t queue_frames_;
   StatusReporter status_;
-  frame_t incoming_;
-  frame_t pending_;
-  bool has_pending_ = false;
+  std::deque<frame_t> pending_;  // in arrival order
+  frame_t spare_;                // the next frame is decoded into this one
   std::int64_t dropped_ = 0;
   scene_cloud_t out_{};
 };
@@ -144,16 +155,18 @@ int main(int argc, char** argv) {
   setup_logging("preprocess", 0);
   install_signal_handlers();
   return run_service_main([&] {
-    const mfot::PreprocessorOptions options = load_preprocess_config(load_config_file(config_path));
+    const PreprocessConfig config = load_preprocess_config(load_config_file(config_path));
+    const mfot::PreprocessorOptions& options = config.preprocessor;
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
       return 1;
     }
-    spdlog::info("voxel {} m, crop z [{}, {}] m, table removal {}, clustering {} (tolerance {} m)", options.voxel_size,
-                 options.crop_min.z(), options.crop_max.z(), options.remove_plane ? "on" : "off",
-                 options.cluster ? "on" : "off", options.cluster_tolerance);
-    PreprocessService service(lcm, options);
+    spdlog::info("voxel {} m, crop z [{}, {}] m, table removal {}, clustering {} (tolerance {} m), {} threads, "
+                 "queue of {} frames",
+                 options.voxel_size, options.crop_min.z(), options.crop_max.z(), options.remove_plane ? "on" : "off",
+                 options.cluster ? "on" : "off", options.cluster_tolerance, options.threads, config.queue_frames);
+    PreprocessService service(lcm, config);
     service.run();
     return 0;
   });

@@ -2,7 +2,9 @@
 // MFOT_MODEL, then runs that object's particle filter (thesis 2.2.2, 3.3) on every scene and
 // publishes the estimate. It heartbeats so the merger can hand its object to another worker if
 // this one dies or stalls. The likelihood backend (JCSD on CUDA or CPU, or the point-to-point
-// baseline) is chosen at run time; each worker owns its CUDA stream.
+// baseline) is chosen at run time; each worker owns its CUDA stream. Scenes wait in a
+// TrackerSceneQueue until the worker holds its object's model of the previous frame, so with a
+// lockstep window of several frames the results are those of a window of one.
 
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/heartbeat_t.hpp"
@@ -13,6 +15,7 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/status.hpp"
+#include "mfot/service/tracker_scene_queue.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 #include "mfot/tracking_step.hpp"
 
@@ -28,10 +31,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A scene this many frames older than the last one tracked starts a new sequence (a restarted
-// capture or replay); anything closer is a late or repeated message and is skipped.
-constexpr std::int64_t kSequenceRestart = 100;
-
 class TrackerWorker {
  public:
   TrackerWorker(lcm::LCM& lcm, TrackerConfig config, int worker_id)
@@ -39,7 +38,8 @@ class TrackerWorker {
         config_(std::move(config)),
         worker_id_(worker_id),
         choice_(make_likelihood(config_.likelihood)),
-        status_(lcm, "tracker", worker_id, choice_.backend) {
+        status_(lcm, "tracker", worker_id, choice_.backend),
+        scenes_(config_.scenes) {
     spdlog::info("likelihood backend {}{}", choice_.backend, choice_.note.empty() ? "" : " (" + choice_.note + ")");
     lcm_.subscribe(channel::kModel, &TrackerWorker::on_model, this);
     lcm_.subscribe(channel::kScene, &TrackerWorker::on_scene, this);
@@ -53,18 +53,17 @@ class TrackerWorker {
         spdlog::error("LCM receive failed; stopping");
         break;
       }
-      // Drain what is queued, then work on the newest scene only.
-      int queued = 0;
-      while (lcm_.handleTimeout(0) > 0) ++queued;
-      status_.set_queue_depth(queued);
-      // An idle worker keeps the newest scene: if the merger assigns it an object while that
-      // frame is still open, it tracks the frame at once instead of the merger waiting for it.
-      if (latest_scene_ && filter_) {
-        track(*latest_scene_);
-        latest_scene_.reset();
+      // Drain what is queued, then track every scene whose model is here, in order. An idle
+      // worker keeps its scenes too: if the merger assigns it an object while those frames are
+      // still open, it tracks them at once instead of the merger waiting for it.
+      while (lcm_.handleTimeout(0) > 0) {
       }
+      while (auto scene = scenes_.next(Clock::now())) track(*scene);
+      status_.set_queue_depth(static_cast<int>(scenes_.size()));
+      report_fallbacks();
       const auto now = Clock::now();
-      if (now >= next_heartbeat) {
+      // A skipped scene is said at once, so the merger does not wait for its estimate.
+      if (now >= next_heartbeat || scenes_.skipped() != skipped_at_heartbeat_) {
         heartbeat();
         next_heartbeat = now + std::chrono::milliseconds(config_.heartbeat_ms);
       }
@@ -76,12 +75,17 @@ class TrackerWorker {
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     object_model_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
+    if (msg.frame_seq < -1) {
+      status_.malformed().record(chan, "invalid model", "frame_seq below -1");
+      return;
+    }
     if (msg.worker_id != worker_id_) {
+      scenes_.frame_finished(msg.frame_seq);
       if (object_id_ == msg.object_id) {
         spdlog::info("object {} {}", object_id_, msg.worker_id < 0 ? "retired" : "moved to another worker");
         object_id_ = -1;
         filter_.reset();
-        latest_scene_.reset();
+        scenes_.object_dropped();
       }
       return;
     }
@@ -96,6 +100,8 @@ class TrackerWorker {
       status_.malformed().record(chan, "invalid model", "empty model assigned");
       return;
     }
+    // A model older than (or the same as) the one held arrived late or again: keep ours.
+    if (!scenes_.accepts_model(msg.object_id, msg.frame_seq)) return;
     // A model the likelihood cannot take (e.g. a JCSD grid beyond its corner limit at a tiny
     // cell_size) is refused like any invalid model instead of stopping the worker.
     try {
@@ -104,7 +110,7 @@ class TrackerWorker {
       status_.malformed().record(chan, "invalid model", e.what());
       return;
     }
-    if (object_id_ != msg.object_id || !filter_) {
+    if (object_id_ != msg.object_id) {
       object_id_ = msg.object_id;
       ParticleFilterOptions options = config_.filter;
       options.seed = config_.filter.seed + static_cast<std::uint64_t>(msg.object_id);
@@ -113,9 +119,9 @@ class TrackerWorker {
       step_.reset();
       spdlog::info("took object {} (model v{} of frame {}, {} points)", object_id_, msg.version, msg.frame_seq,
                    model.cloud.size());
-      // A scene the merger had already finished when it sent this model is not ours to track.
-      if (latest_scene_ && latest_scene_->frame_seq <= msg.frame_seq) latest_scene_.reset();
     }
+    // Scenes the merger had already finished when it sent this model are not ours to track.
+    scenes_.model_received(msg.object_id, msg.frame_seq);
     model_version_ = msg.version;
     model_box_ = model_bounding_box(model);
     model_ = std::move(model);
@@ -124,21 +130,34 @@ class TrackerWorker {
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     scene_cloud_t msg;
     if (!decode_message(rbuf, chan, msg, status_.malformed())) return;
-    if (msg.frame_seq + kSequenceRestart < last_frame_) {
-      spdlog::info("scene seq {} after {}: a new frame sequence", msg.frame_seq, last_frame_);
-      last_frame_ = -1;
-      latest_scene_.reset();
-    }
-    // Frames are tracked in sequence order only: a late (reordered) scene, or one the merger
-    // sends again after this worker already tracked it, is skipped.
-    if (msg.frame_seq <= last_frame_ || (latest_scene_ && msg.frame_seq <= latest_scene_->frame_seq)) return;
     Scene scene;
     if (auto error = scene_from_message(msg, scene)) {
       status_.malformed().record(chan, "invalid scene", *error);
       return;
     }
-    if (latest_scene_ && filter_) status_.set_message("dropped scene " + std::to_string(latest_scene_->frame_seq));
-    latest_scene_ = std::move(scene);
+    // Frames are tracked in sequence order only: a late (reordered) scene, or one the merger
+    // sends again after this worker already has it, is refused.
+    const std::int64_t skipped = scenes_.skipped();
+    if (scenes_.add_scene(std::move(scene)) == TrackerSceneQueue::Arrival::kNewSequence) {
+      spdlog::info("scene seq {}: a new frame sequence", msg.frame_seq);
+    }
+    if (scenes_.skipped() != skipped) {
+      status_.set_message("skipped " + std::to_string(scenes_.skipped()) + " scenes (more than tracker.queue_scenes)");
+    }
+  }
+
+  void report_fallbacks() {
+    if (scenes_.gaps_passed() != reported_gaps_) {
+      reported_gaps_ = scenes_.gaps_passed();
+      spdlog::warn("tracked a scene ahead of a missing one ({} times so far)", reported_gaps_);
+      status_.set_message("tracked " + std::to_string(reported_gaps_) + " scenes ahead of a missing one");
+    }
+    if (scenes_.fallbacks() == reported_fallbacks_) return;
+    reported_fallbacks_ = scenes_.fallbacks();
+    spdlog::warn("tracked a scene without the previous frame's model after {} ms ({} times so far)",
+                 config_.scenes.model_wait.count(), reported_fallbacks_);
+    status_.set_message("tracked " + std::to_string(reported_fallbacks_) +
+                        " scenes without the previous frame's model (tracker.model_wait_ms)");
   }
 
   void track(Scene& scene) {
@@ -165,7 +184,6 @@ class TrackerWorker {
     msg.num_hypothesis_points = static_cast<std::int32_t>(result.hypothesis_points);
     msg.compute_ms = static_cast<float>(ms);
     lcm_.publish(channel::kEstimate, &msg);
-    last_frame_ = scene.frame_seq;
     status_.frame_done(ms);
   }
 
@@ -174,7 +192,8 @@ class TrackerWorker {
     hb.utime = now_utime();
     hb.worker_id = worker_id_;
     hb.object_id = object_id_;
-    hb.last_frame_seq = last_frame_;
+    hb.last_frame_seq = scenes_.last_done();
+    skipped_at_heartbeat_ = scenes_.skipped();
     lcm_.publish(channel::kHeartbeat, &hb);
   }
 
@@ -185,11 +204,13 @@ class TrackerWorker {
   StatusReporter status_;
   std::int32_t object_id_ = -1;
   std::int32_t model_version_ = 0;
-  std::int64_t last_frame_ = -1;
   ObjectModel model_;
   Eigen::AlignedBox3f model_box_;
   std::unique_ptr<ParticleFilter> filter_;
-  std::optional<Scene> latest_scene_;
+  TrackerSceneQueue scenes_;
+  std::int64_t reported_fallbacks_ = 0;
+  std::int64_t reported_gaps_ = 0;
+  std::int64_t skipped_at_heartbeat_ = 0;
   TrackingStep step_{config_.step};
 };
 

@@ -210,20 +210,47 @@ TEST(RealtimeSchedule, ReanchorsWhenTimeGoesBackOrThePublisherLags) {
 }
 
 TEST(LockstepGate, ReleasesWhenThePublishedFrameIsAnswered) {
-  LockstepGate gate;
-  EXPECT_TRUE(gate.released());
-  gate.published(5);
-  EXPECT_FALSE(gate.released());
+  const auto t0 = LockstepGate::Clock::time_point{};
+  LockstepGate gate;  // a window of one frame
+  EXPECT_TRUE(gate.can_publish());
+  gate.published(5, t0);
+  EXPECT_FALSE(gate.can_publish());
   gate.answered(4);
-  EXPECT_FALSE(gate.released());
+  EXPECT_FALSE(gate.can_publish());
   gate.answered(5);
-  EXPECT_TRUE(gate.released());
-  gate.published(6);
+  EXPECT_TRUE(gate.can_publish());
+  EXPECT_TRUE(gate.drained());
+  gate.published(6, t0);
   gate.answered(8);  // newer answers imply the older frame is done
-  EXPECT_TRUE(gate.released());
-  gate.published(9);
-  gate.abandon();
-  EXPECT_TRUE(gate.released());
+  EXPECT_TRUE(gate.can_publish());
+  gate.published(9, t0);
+  gate.abandon_oldest();
+  EXPECT_TRUE(gate.can_publish());
+}
+
+TEST(LockstepGate, KeepsAtMostTheWindowInFlightAndTimesTheOldest) {
+  using namespace std::chrono_literals;
+  const auto t0 = LockstepGate::Clock::time_point{} + 1s;
+  LockstepGate gate(3);
+  gate.published(0, t0);
+  gate.published(1, t0 + 10ms);
+  EXPECT_TRUE(gate.can_publish());
+  gate.published(2, t0 + 20ms);
+  EXPECT_FALSE(gate.can_publish());
+  EXPECT_EQ(gate.oldest(), 0);
+  EXPECT_EQ(gate.oldest_published_at(), t0);
+  gate.answered(0);
+  EXPECT_TRUE(gate.can_publish());
+  EXPECT_EQ(gate.oldest(), 1);
+  EXPECT_EQ(gate.oldest_published_at(), t0 + 10ms);
+  gate.published(3, t0 + 30ms);
+  gate.abandon_oldest();  // frame 1 timed out
+  EXPECT_EQ(gate.oldest(), 2);
+  gate.answered(3);  // answers 2 as well
+  EXPECT_TRUE(gate.drained());
+  EXPECT_FALSE(gate.oldest().has_value());
+  EXPECT_THROW(LockstepGate(0), std::invalid_argument);
+  EXPECT_THROW(LockstepGate(9), std::invalid_argument);
 }
 
 TEST(CaptureSettings, ReadsTheConfigSectionStrictly) {
@@ -249,6 +276,9 @@ TEST(CaptureSettings, ReadsTheConfigSectionStrictly) {
   EXPECT_THROW(load("capture:\n  scenario: juggling\n"), service::ConfigError);
   EXPECT_THROW(load("capture:\n  jpeg_quality: 101\n"), service::ConfigError);
   EXPECT_THROW(load("capture:\n  rate: slow\n"), service::ConfigError);
+  EXPECT_EQ(load("capture:\n  lockstep_window: 4\n").lockstep_window, 4);
+  EXPECT_THROW(load("capture:\n  lockstep_window: 0\n"), service::ConfigError);
+  EXPECT_THROW(load("capture:\n  lockstep_window: 9\n"), service::ConfigError);
   EXPECT_THROW(load("capture:\n  source: tum\n").validate(), service::ConfigError);
   EXPECT_THROW(load("capture:\n  source: oni\n").validate(), service::ConfigError);
 }

@@ -105,3 +105,32 @@ TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
 
 }  // namespace
 }  // namespace mfot::service
+
+namespace mfot::service {
+namespace {
+
+TEST(PipelineConfig, QueuesThreadsAndModelWaitAreReadAndRangeChecked) {
+  const YAML::Node root = YAML::Load(
+      "preprocess:\n  threads: 3\n  queue_frames: 2\n"
+      "tracker:\n  queue_scenes: 4\n  model_wait_ms: 250\n");
+  const PreprocessConfig preprocess = load_preprocess_config(root);
+  EXPECT_EQ(preprocess.preprocessor.threads, 3);
+  EXPECT_EQ(preprocess.queue_frames, 2);
+  const TrackerConfig tracker = load_tracker_config(root);
+  EXPECT_EQ(tracker.scenes.max_scenes, 4u);
+  EXPECT_EQ(tracker.scenes.model_wait.count(), 250);
+
+  const PreprocessConfig automatic = load_preprocess_config(YAML::Load("preprocess: {}\n"));
+  EXPECT_GE(automatic.preprocessor.threads, 1) << "0 (the default) picks a count from the machine";
+  EXPECT_LE(automatic.preprocessor.threads, 8);
+  EXPECT_EQ(automatic.queue_frames, 8);
+
+  EXPECT_THROW(load_preprocess_config(YAML::Load("preprocess:\n  threads: 65\n")), ConfigError);
+  EXPECT_THROW(load_preprocess_config(YAML::Load("preprocess:\n  queue_frames: 0\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  queue_scenes: 0\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  queue_scenes: 65\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  model_wait_ms: 0\n")), ConfigError);
+}
+
+}  // namespace
+}  // namespace mfot::service

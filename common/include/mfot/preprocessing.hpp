@@ -15,7 +15,13 @@
 //      within size limits, numbered by their first voxel (EuclideanClusterer's result, computed
 //      by a grid union-find, about 5x faster on 5 mm voxels).
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
+// With threads > 1, steps 1-2, the plane split of step 3, the voxel keys of step 4 and the cell
+// keys and neighbour tests of step 5 run on a ThreadPool: rows, points and cells are split into
+// pieces whose outputs are disjoint or integer counts placed in order, and clusters are joined by
+// a concurrent union-find whose result depends only on which voxels are close, so the scene is
+// bit-identical for every thread count. The RANSAC fit stays on the calling thread.
 
+#include "mfot/thread_pool.hpp"
 #include "mfot/types.hpp"
 
 #include <Eigen/Core>
@@ -26,6 +32,11 @@
 #include <vector>
 
 namespace mfot {
+
+// Pieces of parallel preprocessing smaller than these are not worth waking a thread for (~10 us).
+inline constexpr std::size_t kMinPreprocessRowsPerPiece = 8;
+inline constexpr std::size_t kMinPreprocessPointsPerPiece = 4096;
+inline constexpr std::size_t kPreprocessPiecesPerThread = 4;
 
 // Pinhole intrinsics of the registered depth/colour image, pixels.
 struct CameraIntrinsics {
@@ -81,9 +92,10 @@ class VoxelDownsampler {
   VoxelDownsampler& operator=(const VoxelDownsampler&) = delete;
 
   // Replaces the voxel set with the voxels of the input points (which must be finite);
-  // colours and source ids have the input's length. Returns the voxel count.
+  // colours and source ids have the input's length. Returns the voxel count. With a pool, the
+  // points' voxel keys are computed on it (the same voxels for any pool).
   std::size_t downsample(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
-                         std::span<const std::uint32_t> source_ids);
+                         std::span<const std::uint32_t> source_ids, ThreadPool* pool = nullptr);
 
   float leaf_size() const { return leaf_size_; }
   std::size_t size() const { return mean_positions_.size(); }
@@ -116,6 +128,7 @@ class VoxelDownsampler {
   std::vector<std::uint32_t> first_source_;
   std::vector<int> counts_;
   std::vector<int> voxel_of_input_;
+  std::vector<std::uint64_t> input_keys_;  // per input point
 };
 
 struct PlaneFitOptions {
@@ -169,6 +182,8 @@ struct PreprocessorOptions {
   int cluster_min_size = 30;         // voxels, in [1, cluster_max_size]
   int cluster_max_size = 100000;     // voxels; larger clusters are rejected (-1)
 
+  int threads = 1;                   // threads of the per-frame work, the caller included, in [1, 64]
+
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
@@ -219,6 +234,23 @@ class Preprocessor {
 
  private:
   void backproject_and_crop(const RgbdImageView& image);
+  // Splits [0, n) into kPreprocessPiecesPerThread pieces per thread (one piece with one thread),
+  // fewer when pieces would be below min_piece, in pieces_.
+  void split_evenly(std::size_t n, std::size_t min_piece);
+  struct PointBuffers {
+    Eigen::Vector3f* positions;
+    Rgb8* colors;
+    std::uint32_t* pixels;
+  };
+  // Rows [v_begin, v_end) of steps 1-2: counts valid and cropped pixels and stores the cropped
+  // points at `out`.
+  void crop_rows(const RgbdImageView& image, int v_begin, int v_end, PointBuffers out, std::size_t& valid,
+                 std::size_t& cropped);
+  // Points [begin, end) of split_by_plane: counts band inliers and kept points, and with kWrite
+  // stores the kept points from index `first` on.
+  template <bool kWrite>
+  void split_points(const TablePlane& plane, std::size_t begin, std::size_t end, std::size_t first,
+                    std::size_t& inliers, std::size_t& kept);
   void remove_table();
   // Signed-distance pass with `plane`: compacts kept points into above_* and returns the share
   // of cropped points within the inlier band.
@@ -227,6 +259,18 @@ class Preprocessor {
   int find_cluster_cell(const Eigen::Vector3i& cell) const;
 
   PreprocessorOptions options_;
+  ThreadPool pool_;
+  // A piece [begin, end) of rows or points of a parallel step: how many points it outputs, where
+  // its output starts once the pieces before it are placed, and a count it keeps besides (valid
+  // depth pixels, plane inliers).
+  struct Piece {
+    std::size_t begin = 0;
+    std::size_t end = 0;
+    std::size_t first = 0;
+    std::size_t tally = 0;
+    std::size_t output_count = 0;
+  };
+  std::vector<Piece> pieces_;
   PlaneFitter plane_fitter_;
   VoxelDownsampler voxels_;
   TablePlane plane_;
@@ -258,6 +302,7 @@ class Preprocessor {
   std::vector<int> cell_slot_ids_;
   std::size_t cell_slot_mask_ = 0;
   std::vector<Eigen::Vector3i> cell_coords_;
+  std::vector<Eigen::Vector3i> point_cell_coords_;
   std::vector<int> cell_start_;
   std::vector<int> cell_fill_;
   std::vector<int> point_cell_;

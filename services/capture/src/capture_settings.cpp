@@ -26,6 +26,10 @@ void CaptureSettings::validate() const {
     throw ConfigError("capture.lockstep_timeout_s: " + std::to_string(lockstep_timeout_s) +
                       " is out of range (0, 3600]");
   }
+  if (lockstep_window < 1 || lockstep_window > service::kMaxLockstepWindow) {
+    throw ConfigError("capture.lockstep_window: " + std::to_string(lockstep_window) + " is out of range [1, " +
+                      std::to_string(service::kMaxLockstepWindow) + "]");
+  }
   if (max_frames < 0) throw ConfigError("capture.max_frames: must be >= 0 (0 = unlimited)");
   if (start_frame < 0) throw ConfigError("capture.start_frame: must be >= 0");
   try {
@@ -58,6 +62,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.rate = parse_rate_mode(section.choice("rate", to_string(s.rate), {"realtime", "fast", "lockstep"}));
   s.speed = section.get<double>("speed", s.speed, 1e-3, 100.0);
   s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", s.lockstep_timeout_s, 1e-3, 3600.0);
+  s.lockstep_window = section.get<int>("lockstep_window", s.lockstep_window, 1, service::kMaxLockstepWindow);
   s.max_frames = section.get<long>("max_frames", s.max_frames, 0L, std::numeric_limits<long>::max());
   s.start_frame = section.get<long>("start_frame", s.start_frame, 0L, std::numeric_limits<long>::max());
   s.loop = section.get<bool>("loop", s.loop);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace mfot::capture {
 
@@ -44,6 +45,33 @@ RealtimeSchedule::Clock::time_point RealtimeSchedule::due(std::int64_t capture_u
     return now;
   }
   return due_time;
+}
+
+LockstepGate::LockstepGate(int window) : window_(window) {
+  if (window < 1 || window > service::kMaxLockstepWindow) {
+    throw std::invalid_argument("LockstepGate window " + std::to_string(window) + " is out of range [1, " +
+                                std::to_string(service::kMaxLockstepWindow) + "]");
+  }
+}
+
+void LockstepGate::published(std::int64_t seq, Clock::time_point at) { in_flight_.push_back({seq, at}); }
+
+void LockstepGate::answered(std::int64_t frame_seq) {
+  while (!in_flight_.empty() && in_flight_.front().seq <= frame_seq) in_flight_.pop_front();
+}
+
+void LockstepGate::abandon_oldest() {
+  if (!in_flight_.empty()) in_flight_.pop_front();
+}
+
+std::optional<std::int64_t> LockstepGate::oldest() const {
+  if (in_flight_.empty()) return std::nullopt;
+  return in_flight_.front().seq;
+}
+
+std::optional<LockstepGate::Clock::time_point> LockstepGate::oldest_published_at() const {
+  if (in_flight_.empty()) return std::nullopt;
+  return in_flight_.front().published;
 }
 
 }  // namespace mfot::capture

@@ -336,30 +336,10 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
   return message;
 }
 
-Frame decode_frame(const frame_t& message, FrameParts parts) {
-  const std::string what = "frame_t seq " + std::to_string(message.seq);
-  check_frame_size(what, message.width, message.height);
-  check_intrinsics(what, message.fx, message.fy, message.cx, message.cy);
-  if (message.depth_size < 0 || static_cast<std::size_t>(message.depth_size) != message.depth_data.size()) {
-    throw FrameCodecError(what + ": depth_size " + std::to_string(message.depth_size) + " does not match " +
-                          std::to_string(message.depth_data.size()) + " depth bytes");
-  }
-  if (message.color_size < 0 || static_cast<std::size_t>(message.color_size) != message.color_data.size()) {
-    throw FrameCodecError(what + ": color_size " + std::to_string(message.color_size) + " does not match " +
-                          std::to_string(message.color_data.size()) + " colour bytes");
-  }
-  Frame frame;
-  frame.capture_utime = message.capture_utime;
-  frame.width = message.width;
-  frame.height = message.height;
-  frame.fx = message.fx;
-  frame.fy = message.fy;
-  frame.cx = message.cx;
-  frame.cy = message.cy;
-  const std::size_t n = pixel_count(message.width, message.height);
-  const auto* depth_bytes = reinterpret_cast<const std::uint8_t*>(message.depth_data.data());
-  const auto* color_bytes = reinterpret_cast<const std::uint8_t*>(message.color_data.data());
+namespace {
 
+void decode_depth_part(const frame_t& message, const std::string& what, std::size_t n, Frame& frame) {
+  const auto* depth_bytes = reinterpret_cast<const std::uint8_t*>(message.depth_data.data());
   std::vector<std::uint8_t> depth;
   switch (message.depth_encoding) {
     case frame_t::DEPTH_RAW:
@@ -396,14 +376,10 @@ Frame decode_frame(const frame_t& message, FrameParts parts) {
     }
   }
 
-  if (parts == FrameParts::kDepthOnly) {
-    if (message.color_encoding != frame_t::COLOR_RAW && message.color_encoding != frame_t::COLOR_JPEG &&
-        message.color_encoding != frame_t::COLOR_PNG) {
-      throw FrameCodecError(what + ": unknown color_encoding " + std::to_string(message.color_encoding) +
-                            " (expected 0=raw, 1=jpeg or 2=png)");
-    }
-    return frame;
-  }
+}
+
+void decode_color_part(const frame_t& message, const std::string& what, std::size_t n, Frame& frame) {
+  const auto* color_bytes = reinterpret_cast<const std::uint8_t*>(message.color_data.data());
   switch (message.color_encoding) {
     case frame_t::COLOR_RAW:
       if (message.color_data.size() != 3 * n) {
@@ -443,6 +419,55 @@ Frame decode_frame(const frame_t& message, FrameParts parts) {
     default:
       throw FrameCodecError(what + ": unknown color_encoding " + std::to_string(message.color_encoding) +
                             " (expected 0=raw, 1=jpeg or 2=png)");
+  }
+}
+
+}  // namespace
+
+Frame decode_frame(const frame_t& message, FrameParts parts, ThreadPool* pool) {
+  const std::string what = "frame_t seq " + std::to_string(message.seq);
+  check_frame_size(what, message.width, message.height);
+  check_intrinsics(what, message.fx, message.fy, message.cx, message.cy);
+  if (message.depth_size < 0 || static_cast<std::size_t>(message.depth_size) != message.depth_data.size()) {
+    throw FrameCodecError(what + ": depth_size " + std::to_string(message.depth_size) + " does not match " +
+                          std::to_string(message.depth_data.size()) + " depth bytes");
+  }
+  if (message.color_size < 0 || static_cast<std::size_t>(message.color_size) != message.color_data.size()) {
+    throw FrameCodecError(what + ": color_size " + std::to_string(message.color_size) + " does not match " +
+                          std::to_string(message.color_data.size()) + " colour bytes");
+  }
+  Frame frame;
+  frame.capture_utime = message.capture_utime;
+  frame.width = message.width;
+  frame.height = message.height;
+  frame.fx = message.fx;
+  frame.fy = message.fy;
+  frame.cx = message.cx;
+  frame.cy = message.cy;
+  const std::size_t n = pixel_count(message.width, message.height);
+
+  if (parts == FrameParts::kDepthOnly) {
+    decode_depth_part(message, what, n, frame);
+    if (message.color_encoding != frame_t::COLOR_RAW && message.color_encoding != frame_t::COLOR_JPEG &&
+        message.color_encoding != frame_t::COLOR_PNG) {
+      throw FrameCodecError(what + ": unknown color_encoding " + std::to_string(message.color_encoding) +
+                            " (expected 0=raw, 1=jpeg or 2=png)");
+    }
+    return frame;
+  }
+  // Depth and colour are independent: with a pool they decode side by side.
+  const auto decode_part = [&message, &what, n, &frame](std::size_t part) {
+    if (part == 0) {
+      decode_depth_part(message, what, n, frame);
+    } else {
+      decode_color_part(message, what, n, frame);
+    }
+  };
+  if (pool != nullptr) {
+    pool->run(2, decode_part);
+  } else {
+    decode_part(0);
+    decode_part(1);
   }
   return frame;
 }

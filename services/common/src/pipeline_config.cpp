@@ -2,7 +2,9 @@
 
 #include "mfot/service/convert.hpp"
 
+#include <algorithm>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace mfot::service {
@@ -12,10 +14,18 @@ Eigen::Vector3f vector3(const std::vector<double>& v) {
   return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
 }
 
+// preprocess.threads 0: a quarter of the cores, at least 1 and at most 8. The group's other
+// processes (trackers, merger, capture) need the rest; results are the same for any count.
+int auto_preprocess_threads() {
+  const unsigned cores = std::thread::hardware_concurrency();
+  return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
+}
+
 }  // namespace
 
-PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
-  PreprocessorOptions o;
+PreprocessConfig load_preprocess_config(const YAML::Node& root) {
+  PreprocessConfig config;
+  PreprocessorOptions& o = config.preprocessor;
   auto s = config_section(root, "preprocess");
   o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
   o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
@@ -32,13 +42,16 @@ PreprocessorOptions load_preprocess_config(const YAML::Node& root) {
   o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
   o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
   o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
+  const int threads = s.get<int>("threads", 0, 0, 64);
+  o.threads = threads > 0 ? threads : auto_preprocess_threads();
+  config.queue_frames = s.get<int>("queue_frames", config.queue_frames, 1, 64);
   s.finish();
   try {
     o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("preprocess: ") + e.what());
   }
-  return o;
+  return config;
 }
 
 namespace {
@@ -80,6 +93,9 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.occlusion.own_surface_radius =
       s.get<float>("own_surface_radius", c.step.occlusion.own_surface_radius, 0.f, 0.1f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
+  c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", c.scenes.max_scenes, 1, 64);
+  c.scenes.model_wait =
+      std::chrono::milliseconds(s.get<int>("model_wait_ms", static_cast<int>(c.scenes.model_wait.count()), 1, 600000));
   s.finish();
   try {
     const ParticleFilter validate_only(c.filter);  // the filter validates its options

@@ -19,6 +19,7 @@ struct CaptureSettings {
   RateMode rate = RateMode::kRealtime;
   double speed = 1.0;                   // real-time playback factor, (0, 100]
   double lockstep_timeout_s = 5.0;      // wait for MFOT_POSES before warning and moving on, (0, 3600]
+  int lockstep_window = service::kDefaultLockstepWindow;  // frames without poses yet, [1, kMaxLockstepWindow]
   std::int64_t max_frames = 0;          // frames to publish, 0 = unlimited
   std::int64_t start_frame = 0;         // first source frame
   bool loop = false;                    // restart a finite source at its end

@@ -3,8 +3,11 @@
 // (publish the next frame only after the pipeline answered the previous one on MFOT_POSES).
 // Both are clock-agnostic state machines; the service loop does the waiting.
 
+#include "mfot/service/lcm_util.hpp"
+
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <string>
 
@@ -42,21 +45,36 @@ class RealtimeSchedule {
   std::int64_t last_capture_utime_ = 0;
 };
 
-// Tracks whether the pipeline has finished the last published frame.
+// Tracks the frames the pipeline has not answered yet, at most `window` of them: the next frame
+// may go out while fewer are in flight (window 1: strictly one frame after the other). The pipeline
+// stays deterministic for any window (trackers wait for the models of the frame before).
 class LockstepGate {
  public:
-  void published(std::int64_t seq) { waiting_for_ = seq; }
-  // A poses_t arrived for frame_seq; frames are answered in order, so a newer seq also counts.
-  void answered(std::int64_t frame_seq) {
-    if (waiting_for_ && frame_seq >= *waiting_for_) waiting_for_.reset();
-  }
-  // Gives up on the current frame (timeout).
-  void abandon() { waiting_for_.reset(); }
-  bool released() const { return !waiting_for_.has_value(); }
-  std::optional<std::int64_t> waiting_for() const { return waiting_for_; }
+  using Clock = std::chrono::steady_clock;
+
+  // window in [1, service::kMaxLockstepWindow]; throws std::invalid_argument otherwise.
+  explicit LockstepGate(int window = 1);
+
+  void published(std::int64_t seq, Clock::time_point at);
+  // A poses_t arrived for frame_seq; frames are answered in order, so it answers every frame up
+  // to it as well.
+  void answered(std::int64_t frame_seq);
+  // Gives up on the oldest frame in flight (its timeout passed).
+  void abandon_oldest();
+  bool can_publish() const { return static_cast<int>(in_flight_.size()) < window_; }
+  bool drained() const { return in_flight_.empty(); }
+  // The oldest frame in flight and when it was published.
+  std::optional<std::int64_t> oldest() const;
+  std::optional<Clock::time_point> oldest_published_at() const;
+  int window() const { return window_; }
 
  private:
-  std::optional<std::int64_t> waiting_for_;
+  struct InFlight {
+    std::int64_t seq;
+    Clock::time_point published;
+  };
+  int window_;
+  std::deque<InFlight> in_flight_;  // in publishing order
 };
 
 }  // namespace mfot::capture

@@ -5,6 +5,7 @@
 // encodings, so a truncated or corrupt message becomes a FrameCodecError, never bad pixels.
 
 #include "mfot/frame_t.hpp"
+#include "mfot/thread_pool.hpp"
 #include "mfot/types.hpp"
 
 #include <cstddef>
@@ -71,8 +72,9 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
 enum class FrameParts { kDepthAndColor, kDepthOnly };
 
 // Validates and decodes a wire message; throws FrameCodecError naming the problem. The colour's
-// size and encoding fields are checked in both modes.
-Frame decode_frame(const frame_t& message, FrameParts parts = FrameParts::kDepthAndColor);
+// size and encoding fields are checked in both modes. With a pool of two or more threads depth
+// and colour decode side by side (the same result; a depth error is reported before a colour one).
+Frame decode_frame(const frame_t& message, FrameParts parts = FrameParts::kDepthAndColor, ThreadPool* pool = nullptr);
 
 // The codec pieces, exposed for tools and tests.
 std::vector<std::uint8_t> depth_to_bytes(const std::vector<std::uint16_t>& depth_mm);  // little-endian

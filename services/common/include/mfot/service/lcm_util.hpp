@@ -32,6 +32,14 @@ inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_
 inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
 }  // namespace channel
 
+// Lockstep sources (mfot-capture, mfot-replay) keep at most this many frames out whose poses have
+// not come back (capture.lockstep_window). One: a frame's latency is its own processing time (more
+// frames in flight raise throughput, since preprocessing of the next frame overlaps tracking and
+// merging of this one, but each frame then also waits for those ahead of it); the results are the
+// same for every window, since trackers wait for the models of the frame before (TrackerSceneQueue).
+inline constexpr int kDefaultLockstepWindow = 1;
+inline constexpr int kMaxLockstepWindow = 8;
+
 // Host-local multicast: ttl=0 keeps traffic on this machine (LCM has no authentication).
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 

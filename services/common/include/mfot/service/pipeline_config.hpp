@@ -8,6 +8,7 @@
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/tracker_scene_queue.hpp"
 #include "mfot/tracking_step.hpp"
 
 namespace mfot::service {
@@ -17,6 +18,15 @@ struct TrackerConfig {
   ParticleFilterOptions filter;
   TrackingStepOptions step;  // hypothesis data, occlusion hold and occluder removal
   int heartbeat_ms = 100;
+  TrackerSceneQueueOptions scenes;  // queue_scenes, model_wait_ms
+};
+
+// The `preprocess` section: the core's options and the service's frame queue.
+struct PreprocessConfig {
+  PreprocessorOptions preprocessor;
+  // Frames waiting for preprocessing, in order; beyond it the oldest is dropped. In lockstep at
+  // most capture.lockstep_window - 1 wait; 1 = always the newest (a live camera's lowest latency).
+  int queue_frames = 8;
 };
 
 struct MergerConfig {
@@ -32,7 +42,7 @@ struct MergerConfig {
 };
 
 // Every key is documented in configs/default.yaml and configs/preprocess.example.yaml.
-PreprocessorOptions load_preprocess_config(const YAML::Node& root);
+PreprocessConfig load_preprocess_config(const YAML::Node& root);
 TrackerConfig load_tracker_config(const YAML::Node& root);
 MergerConfig load_merger_config(const YAML::Node& root);
 
