@@ -30,6 +30,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <thread>
 #include <vector>
 
 namespace mfot::service {
@@ -390,8 +391,9 @@ class Merger {
                     fitting = std::move(fitting), frame = std::move(frame), voxel_size = voxel_size_] {
       // The fitting distances and the label image are independent: side by side they keep the
       // output thread ahead of the frame rate (at ~100 frames/s one after the other did not).
-      // Made here so that its thread inherits the output thread's lower priority.
-      if (!output_split_) output_split_ = std::make_unique<ThreadPool>(2);
+      // Made here so that its thread inherits the output thread's lower priority. Below 4 cores
+      // there is no core to spare for it (the 2-core dev machine's group is CPU-bound): one thread.
+      if (!output_split_) output_split_ = std::make_unique<ThreadPool>(std::thread::hardware_concurrency() >= 4 ? 2 : 1);
       output_split_->run(2, [&](std::size_t part) {
         if (part == 0) {
           if (fitting.empty()) return;
