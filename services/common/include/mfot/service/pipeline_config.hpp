@@ -24,8 +24,9 @@ struct TrackerConfig {
 // The `preprocess` section: the core's options and the service's frame queue.
 struct PreprocessConfig {
   PreprocessorOptions preprocessor;
-  // Frames waiting for preprocessing, in order; beyond it the oldest is dropped. In lockstep at
-  // most capture.lockstep_window - 1 wait; 1 = always the newest (a live camera's lowest latency).
+  // Frames waiting for preprocessing, in order; beyond it the oldest is dropped. In lockstep up to
+  // capture.lockstep_window wait (all of them can arrive before the first is processed); 1 =
+  // always the newest (a live camera's lowest latency).
   int queue_frames = 8;
 };
 
