@@ -37,15 +37,20 @@ OcclusionTest::OcclusionTest(const OcclusionOptions& options)
   ray_hash_.build({});
 }
 
-void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
-  ray_points_.clear();
-  ray_scene_.clear();
-  for (const auto& p : scene_points) {
+void OcclusionTest::index_rays(std::span<const Eigen::Vector3f> points, std::vector<Eigen::Vector3f>& rays,
+                               std::vector<Eigen::Vector3f>& sources, SpatialHash& hash) {
+  rays.clear();
+  sources.clear();
+  for (const auto& p : points) {
     if (!(p.z() > 0.f)) continue;
-    ray_points_.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
-    ray_scene_.push_back(p);
+    rays.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
+    sources.push_back(p);
   }
-  ray_hash_.build(ray_points_);
+  hash.build(rays);
+}
+
+void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
+  index_rays(scene_points, ray_points_, ray_scene_, ray_hash_);
 }
 
 bool OcclusionTest::occluded(const Eigen::Vector3f& point) { return occluded_by_other(point, nullptr); }
@@ -62,42 +67,37 @@ bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const Spatia
   });
 }
 
-void OcclusionTest::set_own_points(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+void OcclusionTest::set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
   Pose unit = pose;
   unit.rotation.normalize();
   const Eigen::Isometry3f to_camera = unit.isometry();
   own_points_.clear();
   for (const auto& p : model_points) own_points_.push_back(to_camera * p);
+  if (options_.own_surface_radius > 0.f) own_hash_.build(own_points_);
+  model_rays_indexed_ = false;
 }
 
-float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
-  if (model_points.empty()) return 0.f;
-  set_own_points(model_points, pose);
-  const SpatialHash* own = nullptr;
-  if (options_.own_surface_radius > 0.f) {
-    own_hash_.build(own_points_);
-    own = &own_hash_;
-  }
+float OcclusionTest::occluded_share() {
+  if (own_points_.empty()) return 0.f;
+  const SpatialHash* own = options_.own_surface_radius > 0.f ? &own_hash_ : nullptr;
   std::size_t occluded_points = 0;
   for (const auto& m : own_points_) {
     if (occluded_by_other(m, own)) ++occluded_points;
   }
-  return static_cast<float>(occluded_points) / static_cast<float>(model_points.size());
+  return static_cast<float>(occluded_points) / static_cast<float>(own_points_.size());
 }
 
-std::size_t OcclusionTest::remove_occluders(std::span<const Eigen::Vector3f> model_points, const Pose& pose,
-                                            HypothesisData& data) {
-  if (model_points.empty() || data.points.empty()) return 0;
-  set_own_points(model_points, pose);
-  own_hash_.build(own_points_);
-  model_rays_.clear();
-  model_depths_.clear();
-  for (const auto& m : own_points_) {
-    if (!(m.z() > 0.f)) continue;
-    model_rays_.emplace_back(m.x() / m.z(), m.y() / m.z(), 0.f);
-    model_depths_.push_back(m.z());
+float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+  set_model(model_points, pose);
+  return occluded_share();
+}
+
+std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {
+  if (own_points_.empty() || data.points.empty()) return 0;
+  if (!model_rays_indexed_) {
+    index_rays(own_points_, model_rays_, model_ray_points_, model_ray_hash_);
+    model_rays_indexed_ = true;
   }
-  model_ray_hash_.build(model_rays_);
   const auto occludes = [&](const Eigen::Vector3f& p) {
     if (!(p.z() > 0.f)) return false;
     if (options_.own_surface_radius > 0.f && own_hash_.nearest(p, options_.own_surface_radius) >= 0) return false;
@@ -105,7 +105,7 @@ std::size_t OcclusionTest::remove_occluders(std::span<const Eigen::Vector3f> mod
     model_ray_hash_.radius_search(Eigen::Vector3f(p.x() / p.z(), p.y() / p.z(), 0.f), options_.window, neighbours_);
     const float behind = p.z() + options_.depth_margin;
     return std::any_of(neighbours_.begin(), neighbours_.end(),
-                       [&](int i) { return model_depths_[static_cast<std::size_t>(i)] > behind; });
+                       [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });
   };
   std::size_t kept = 0;
   const std::size_t n = data.points.size();

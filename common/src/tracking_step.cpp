@@ -41,9 +41,11 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<cons
                                        ParticleFilter& filter, Likelihood& likelihood) {
   TrackingStepResult result;
   const Pose last = filter.estimate();
+  const bool tests_occlusion = options_.hold_occluded_share > 0.f || options_.exclude_occluders;
+  if (tests_occlusion) occlusion_.set_model(model.cloud.positions, last);  // once for both questions
   if (options_.hold_occluded_share > 0.f) {
     occlusion_.set_scene(scene.positions);
-    result.occluded_share = occlusion_.occluded_share(model.cloud.positions, last);
+    result.occluded_share = occlusion_.occluded_share();
     if (result.occluded_share < options_.hold_occluded_share) {
       held_in_row_ = 0;
     } else if (held_in_row_ >= options_.max_hold_frames) {
@@ -60,7 +62,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<cons
   }
   select_hypothesis_data(scene, scene_features, model_box, last, options_.hypothesis, hypothesis_);
   if (options_.exclude_occluders && !result.hold_expired) {
-    result.occluders_removed = occlusion_.remove_occluders(model.cloud.positions, last, hypothesis_);
+    result.occluders_removed = occlusion_.remove_occluders(hypothesis_);
   }
   result.hypothesis_points = hypothesis_.points.size();
   result.estimate = filter.step(hypothesis_, likelihood);

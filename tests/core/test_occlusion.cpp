@@ -110,7 +110,8 @@ TEST(OcclusionTest, RemovesThePointsInFrontOfTheModelAndKeepsTheRestInOrder) {
   points.insert(points.end(), behind.begin(), behind.end());
   HypothesisData data = as_data(points);
   OcclusionTest test;
-  const std::size_t removed = test.remove_occluders(model, identity(), data);
+  test.set_model(model, identity());
+  const std::size_t removed = test.remove_occluders(data);
   // The plate's points on rays through the model go; its points beside the model, the model's own
   // surface and the surface behind it stay.
   std::size_t in_front = 0;
@@ -143,20 +144,24 @@ TEST(OcclusionTest, RemovingOccludersSparesTheObjectsOwnNearSideAndFollowsThePos
   pose.translation = Eigen::Vector3f(0.f, 0.f, 1.f);
   HypothesisData data = as_data(facing_patch(1.0f));
   OcclusionTest test;
-  EXPECT_EQ(test.remove_occluders(model, pose, data), 0u);
+  test.set_model(model, pose);
+  EXPECT_EQ(test.remove_occluders(data), 0u);
   EXPECT_EQ(data.points.size(), 400u);
   // Without the own-surface rule the front face counts as an occluder of the back face.
   OcclusionOptions plain;
   plain.own_surface_radius = 0.f;
   OcclusionTest plain_test(plain);
-  EXPECT_EQ(plain_test.remove_occluders(model, pose, data), 400u);
+  plain_test.set_model(model, pose);
+  EXPECT_EQ(plain_test.remove_occluders(data), 400u);
   // The model moved 20 cm back: a surface at 1 m within its silhouette is now in front of it.
   data = as_data(facing_patch(1.0f, 16));
   pose.translation.z() = 1.2f;
-  EXPECT_EQ(test.remove_occluders(model, pose, data), 256u);
+  test.set_model(model, pose);
+  EXPECT_EQ(test.remove_occluders(data), 256u);
   EXPECT_TRUE(data.points.empty() && data.features.empty() && data.colors.empty());
   // Nothing to remove from, or nothing to be occluded.
-  EXPECT_EQ(test.remove_occluders({}, pose, data), 0u);
+  test.set_model({}, pose);
+  EXPECT_EQ(test.remove_occluders(data), 0u);
 }
 
 }  // namespace

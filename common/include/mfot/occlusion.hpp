@@ -31,7 +31,8 @@ struct OcclusionOptions {
 // is occluded when a scene point lies inside the cone of half-angle `window` around the ray
 // through m and is at least depth_margin closer to the camera (depth along z); a point at
 // z <= 0 is behind the camera and counts as occluded. Steps: set_scene indexes the scene's
-// normalised image coordinates (x/z, y/z) with their depth; every query is one cone search.
+// normalised image coordinates (x/z, y/z) with their depth, set_model places the model (and
+// indexes its own surface); every query is one cone search.
 class OcclusionTest {
  public:
   explicit OcclusionTest(const OcclusionOptions& options = {});
@@ -42,32 +43,38 @@ class OcclusionTest {
 
   void set_scene(std::span<const Eigen::Vector3f> scene_points);  // camera frame
   bool occluded(const Eigen::Vector3f& point);                     // camera frame
-  // Share of the model's points (object frame, moved by pose: object -> camera) occluded by
-  // scene points other than the object's own surface (own_surface_radius), in [0, 1]; 0 for an
-  // empty model.
-  float occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
+  // The model (object frame) moved by pose (object -> camera) for the two questions below; an
+  // object's tracking step sets it once and asks both.
+  void set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
+  // Share of the set model's points occluded by scene points other than the object's own surface
+  // (own_surface_radius), in [0, 1]; 0 for an empty model.
+  float occluded_share();
+  float occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose);  // set_model + the above
   // The inverse question, asked of hypothesis data: removes from data the points that occlude the
-  // model (object frame, moved by pose) — points at least depth_margin in front of a model point
-  // on their viewing cone and farther than own_surface_radius from every model point (a hand in
-  // front of the object, not its own near side). The remaining points keep their order. Returns
-  // how many were removed. Independent of set_scene().
-  std::size_t remove_occluders(std::span<const Eigen::Vector3f> model_points, const Pose& pose, HypothesisData& data);
+  // set model — points at least depth_margin in front of a model point on their viewing cone and
+  // farther than own_surface_radius from every model point (a hand in front of the object, not
+  // its own near side). The remaining points keep their order. Returns how many were removed.
+  // Independent of set_scene().
+  std::size_t remove_occluders(HypothesisData& data);
 
  private:
+  // A cone index: (x/z, y/z, 0) of the points with z > 0 in hash, each with its point in sources.
+  static void index_rays(std::span<const Eigen::Vector3f> points, std::vector<Eigen::Vector3f>& rays,
+                         std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
   // occluded(), ignoring scene points within own_surface_radius of own_ (when given).
   bool occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own);
-  void set_own_points(std::span<const Eigen::Vector3f> model_points, const Pose& pose);  // own_points_ = pose * model
 
   OcclusionOptions options_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
   std::vector<Eigen::Vector3f> ray_points_;
   std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point (its depth is z)
   std::vector<int> neighbours_;
-  SpatialHash own_hash_;
-  std::vector<Eigen::Vector3f> own_points_;  // the model in the camera frame
-  SpatialHash model_ray_hash_;               // remove_occluders: (x/z, y/z, 0) of the model's points
+  SpatialHash own_hash_;                     // own_points_, when own_surface_radius > 0
+  std::vector<Eigen::Vector3f> own_points_;  // the set model in the camera frame
+  bool model_rays_indexed_ = false;          // remove_occluders indexes the model's rays once per set_model
+  SpatialHash model_ray_hash_;               // (x/z, y/z, 0) of the model's points with z > 0
   std::vector<Eigen::Vector3f> model_rays_;
-  std::vector<float> model_depths_;          // their depths, by the same index
+  std::vector<Eigen::Vector3f> model_ray_points_;  // the model point of each ray (its depth is z)
 };
 
 }  // namespace mfot
