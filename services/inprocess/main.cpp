@@ -118,15 +118,14 @@ int run(const Options& cli) {
     std::map<std::int32_t, ObjectEstimate> estimates;
     for (auto& [id, tracker] : trackers) {
       const ObjectModel& model = manager.objects().at(id).model;
-      const TrackingStepResult step =
-          tracker.step->track(scene.cloud, scene.features, model, tracker.model_box, *tracker.filter,
-                         *tracker.likelihood.likelihood);
+      const TrackingStepResult step = tracker.step->track(scene.cloud, scene.features, model, tracker.model_box,
+                                                          *tracker.filter, *tracker.likelihood.likelihood);
       estimates[id] = {step.estimate, tracker.filter->confidence()};
       spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
                     "t [{:.3f} {:.3f} {:.3f}]",
-                    seq, id, model.cloud.size(), step.held ? "held" : "stepped", step.occluded_share, step.hypothesis_points,
-                    step.occluders_removed, step.estimate.translation.x(), step.estimate.translation.y(),
-                    step.estimate.translation.z());
+                    seq, id, model.cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
+                    step.hypothesis_points, step.occluders_removed, step.estimate.translation.x(),
+                    step.estimate.translation.y(), step.estimate.translation.z());
     }
     track_ms.push_back(ms_since(t_track));
     const auto t_merge = Clock::now();
