@@ -158,7 +158,6 @@ GpuFigures gpu_ms(mfot::CudaJcsdLikelihood& gpu, const Scene& scene, int reps, s
   }
   return {median(kernel), median(events), median(wall)};
 }
-#endif
 
 double max_relative_difference(const std::vector<float>& reference, const std::vector<float>& other) {
   double worst = 0.0;
@@ -168,6 +167,7 @@ double max_relative_difference(const std::vector<float>& reference, const std::v
   }
   return worst;
 }
+#endif
 
 std::string cpu_model() {
   std::ifstream in("/proc/cpuinfo");
