@@ -26,6 +26,16 @@ namespace {
 using test::random_scene;
 using test::RandomScene;
 
+class CudaJcsd : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (!cuda_available(&why)) GTEST_SKIP() << "CUDA JCSD not testable here: " << why;
+  }
+};
+
+#if MFOT_HAVE_CUDA
+
 std::vector<float> cpu_scores(const RandomScene& scene, const JcsdGridOptions& grid = {}) {
   JcsdLikelihood cpu(JcsdLikelihoodOptions{grid, 1});
   cpu.set_model(scene.model);
@@ -42,16 +52,6 @@ void expect_parity(const std::vector<float>& cpu, const std::vector<float>& gpu)
     EXPECT_NEAR(gpu[i], cpu[i], 1e-4f * std::abs(cpu[i]) + 1e-9f) << "particle " << i;
   }
 }
-
-class CudaJcsd : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::string why;
-    if (!cuda_available(&why)) GTEST_SKIP() << "CUDA JCSD not testable here: " << why;
-  }
-};
-
-#if MFOT_HAVE_CUDA
 
 TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
   CudaJcsdLikelihoodOptions options;

@@ -17,6 +17,7 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
   }
   if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
   out.frame_seq = msg.frame_seq;
+  out.voxel_size = msg.voxel_size;
   out.capture_utime = msg.capture_utime;
   out.cloud.clear();
   out.cloud.reserve(n);

@@ -17,6 +17,7 @@ namespace mfot::service {
 struct Scene {
   std::int64_t frame_seq = 0;
   std::int64_t capture_utime = 0;
+  float voxel_size = 0.f;                // preprocess voxel leaf, metres
   ColoredCloud cloud;                    // camera frame
   std::vector<std::int32_t> cluster;     // per point, -1 = none
   std::vector<SmrFeature> features;      // per point (filled by whoever needs them)

@@ -1,0 +1,101 @@
+#pragma once
+// The merger's protocol engine, transport-free: it takes the messages the merger subscribes to
+// (scenes, estimates, heartbeats) as received bytes, validates them, and runs the frame loop of
+// thesis 3.1 / 3.4 around ObjectManager. Steps, per call of step(now):
+//   1. workers silent past the timeout are declared dead (WorkerPool::expire);
+//   2. objects without a live owner go to idle workers, who are sent their model (assign);
+//   3. while the oldest open frame is due (FrameAssembler::poll; lost scenes and models are sent
+//      again first): ObjectManager::process with the owners' estimates, then retirements are
+//      sent, idle workers take the new objects, every owner gets its object's model of this
+//      frame, and the frame's segmentation and poses go out (MergerSink::publish_frame).
+// What goes out is said to a MergerSink (the LCM main publishes it; tests record it). The clock is
+// passed in, so tests drive time.
+
+#include "mfot/object_manager.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/frame_assembler.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/worker_pool.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace mfot::service {
+
+struct MergerCoreOptions {
+  ObjectManagerOptions manager;
+  WorkerPoolOptions workers;
+  FrameAssemblerOptions frames;
+
+  // Throws std::invalid_argument naming the field and its range.
+  void validate() const;
+};
+
+// A frame the merger finished: its scene, what ObjectManager made of it and every object now.
+struct FinishedFrame {
+  const Scene& scene;
+  const ObjectManagerFrame& result;
+  const std::map<std::int32_t, ManagedObject>& objects;
+  std::chrono::steady_clock::time_point due_at;  // when the core began to finish it (its clock)
+};
+
+class MergerSink {
+ public:
+  MergerSink() = default;
+  MergerSink(const MergerSink&) = delete;
+  MergerSink& operator=(const MergerSink&) = delete;
+  virtual ~MergerSink() = default;
+
+  // The object's model and pose as of frame `frame_seq`, addressed to `worker_id` (its owner, or
+  // -1: nobody owns it now).
+  virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) = 0;
+  virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq) = 0;
+  // A scene as received, for workers that lost it.
+  virtual void resend_scene(std::span<const std::uint8_t> message) = 0;
+  virtual void publish_frame(const FinishedFrame& frame) = 0;
+  // Something a person watching the status should know (late scenes and the like).
+  virtual void note(const std::string& message) = 0;
+};
+
+class MergerCore {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `malformed` counts the messages refused; `clock` gives the current time.
+  MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCounter& malformed,
+             std::function<Clock::time_point()> clock);
+  MergerCore(const MergerCore&) = delete;
+  MergerCore& operator=(const MergerCore&) = delete;
+
+  // The subscribers (MFOT_SCENE, MFOT_ESTIMATE, MFOT_HEARTBEAT): malformed messages are counted
+  // and dropped.
+  void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  void on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  void on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+
+  // Steps 1-3; returns the number of frames finished.
+  int step();
+
+  const ObjectManager& manager() const { return manager_; }
+  const WorkerPool& workers() const { return workers_; }
+  std::size_t open_frames() const { return frames_.open_frames(); }
+
+ private:
+  void assign_idle_workers(Clock::time_point now);
+  void finish_frame(Clock::time_point due_at);
+
+  ObjectManager manager_;
+  WorkerPool workers_;
+  FrameAssembler frames_;
+  MergerSink& sink_;
+  MalformedCounter& malformed_;
+  std::function<Clock::time_point()> clock_;
+  std::vector<std::int32_t> object_ids_;  // scratch: the objects in id order
+};
+
+}  // namespace mfot::service

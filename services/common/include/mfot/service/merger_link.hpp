@@ -1,0 +1,49 @@
+#pragma once
+// The merger's side of LCM: publishes what MergerCore says (models, retirements, re-sent scenes,
+// segmentation and poses), writes the run folder's results, keeps the frames the label images
+// need (MFOT_FRAME), and reports on MFOT_STATUS.
+
+#include "mfot/frame_t.hpp"
+#include "mfot/service/merger_core.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/run_outputs.hpp"
+#include "mfot/service/status.hpp"
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace mfot::service {
+
+// The core's options of the `merger` config section.
+MergerCoreOptions merger_core_options(const MergerConfig& config);
+
+class LcmMergerLink : public MergerSink {
+ public:
+  // `output_dir`: write poses.csv, fitting.csv and labels/ there (`append`: continue them).
+  LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const MergerConfig& config,
+                const std::optional<std::string>& output_dir, bool append);
+
+  void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) override;
+  void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override;
+  void resend_scene(std::span<const std::uint8_t> message) override;
+  void publish_frame(const FinishedFrame& frame) override;
+  void note(const std::string& message) override { status_.set_message(message); }
+
+  // MFOT_FRAME, kept (as received, decoded on the output thread) for the label image of its scene.
+  void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // Waits for the output thread and flushes the files.
+  void finish();
+
+ private:
+  lcm::LCM& lcm_;
+  StatusReporter& status_;
+  Pose world_from_camera_;
+  float fps_;
+  bool write_labels_;
+  std::unique_ptr<RunOutputs> outputs_;
+  std::map<std::int64_t, frame_t> frames_;  // by seq, for label images
+};
+
+}  // namespace mfot::service

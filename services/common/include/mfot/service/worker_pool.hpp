@@ -1,0 +1,101 @@
+#pragma once
+// The merger's registry of tracker workers: who is alive, which object each one owns, and how far
+// each owner got. Objects scale across processes (and hosts) by handing each object to one idle
+// worker; a worker that stops heartbeating is declared dead and its object handed to another one
+// under the same id, with the last model and pose (the merger sends them).
+// Steps, as the merger feeds it what arrives:
+//   1. heartbeat: a new (or returning) worker joins the pool idle; a worker that says it holds
+//      something other than its assignment, once the assignment had time to arrive, is answered
+//      (send its model again, tell it the object's owner, or retire an object that does not exist);
+//   2. expire: workers silent for longer than the timeout are declared dead, their objects freed;
+//   3. assign: every object without a live owner goes to the idle worker with the lowest id;
+//   4. release: a retired object frees its worker.
+// The owner's progress (the last frame it finished, from its estimates and heartbeats) lets the
+// frame assembly stop waiting for an estimate that will never come.
+// No LCM and no clock of its own: the caller passes the time.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace mfot::service {
+
+struct WorkerPoolOptions {
+  // A worker silent this long is declared dead, [100 ms, 600 s] (merger.worker_timeout_ms).
+  std::chrono::milliseconds worker_timeout{1000};
+  // A model sent to a worker reaches it well within this on one host; a heartbeat that still
+  // disagrees with the assignment afterwards means the model (or the retirement) was lost.
+  std::chrono::milliseconds model_in_flight{200};
+
+  // Throws std::invalid_argument naming the field and its range.
+  void validate() const;
+};
+
+class WorkerPool {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  struct Worker {
+    Clock::time_point last_seen;
+    std::int32_t object_id = -1;       // as assigned by the merger
+    Clock::time_point told_at;         // when it was last sent its assignment, a move or a retirement
+    std::int64_t last_frame_seq = -1;  // from its last heartbeat
+    bool alive = true;
+  };
+
+  // What the merger must send after a heartbeat that disagrees with the assignment.
+  struct Correction {
+    enum class Kind {
+      kSendModel,  // send object_id's model addressed to worker_id (its owner, or -1 for none)
+      kRetire,     // object_id does not exist: retire it (and never reuse its id)
+    };
+    Kind kind;
+    std::int32_t object_id;
+    std::int32_t worker_id;
+  };
+
+  struct Assignment {
+    std::int32_t object_id;
+    std::int32_t worker_id;
+  };
+
+  explicit WorkerPool(WorkerPoolOptions options);
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  // Step 1. `object_exists` answers for an object the worker holds but does not own.
+  std::vector<Correction> heartbeat(std::int32_t worker_id, std::int32_t held_object_id, std::int64_t last_frame_seq,
+                                    Clock::time_point now, const std::function<bool(std::int32_t)>& object_exists);
+  // Step 2: the workers declared dead now.
+  std::vector<std::int32_t> expire(Clock::time_point now);
+  // Step 3, over `object_ids` in order; returns the new assignments.
+  std::vector<Assignment> assign(std::span<const std::int32_t> object_ids, Clock::time_point now);
+  // Step 4: the object is gone; its owner (if any) becomes idle.
+  void release(std::int32_t object_id, Clock::time_point now);
+
+  // The owner has finished frame `seq` of its object (an estimate or a heartbeat).
+  void note_progress(std::int32_t object_id, std::int64_t seq);
+  // Whether `worker_id` owns `object_id` now.
+  bool owns(std::int32_t worker_id, std::int32_t object_id) const;
+  std::optional<std::int32_t> owner(std::int32_t object_id) const;
+  // The last frame the owner of `object_id` finished, if it said so.
+  std::optional<std::int64_t> progress(std::int32_t object_id) const;
+  // object -> worker, in object order.
+  const std::map<std::int32_t, std::int32_t>& owners() const { return owners_; }
+  const std::map<std::int32_t, Worker>& workers() const { return workers_; }
+  int alive_count() const;
+
+ private:
+  void disown(std::int32_t object_id);
+
+  WorkerPoolOptions options_;
+  std::map<std::int32_t, Worker> workers_;
+  std::map<std::int32_t, std::int32_t> owners_;    // object -> worker
+  std::map<std::int32_t, std::int64_t> progress_;  // object -> last frame its owner finished
+};
+
+}  // namespace mfot::service

@@ -1,0 +1,151 @@
+#include "mfot/service/merger_core.hpp"
+
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/tracker_estimate_t.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace mfot::service {
+
+void MergerCoreOptions::validate() const {
+  manager.validate();
+  try {
+    workers.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("workers: ") + e.what());
+  }
+  try {
+    frames.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("frames: ") + e.what());
+  }
+}
+
+MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCounter& malformed,
+                       std::function<Clock::time_point()> clock)
+    : manager_((options.validate(), options.manager)),
+      workers_(options.workers),
+      frames_(options.frames),
+      sink_(sink),
+      malformed_(malformed),
+      clock_(std::move(clock)) {}
+
+void MergerCore::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  scene_cloud_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  Scene scene;
+  if (auto error = scene_from_message(msg, scene)) {
+    malformed_.record(channel_name, "invalid scene", *error);
+    return;
+  }
+  const auto* bytes = static_cast<const std::uint8_t*>(rbuf->data);
+  const std::int64_t last_finished = frames_.last_finished_seq();
+  switch (frames_.add_scene(std::move(scene), {bytes, bytes + rbuf->data_size}, clock_())) {
+    case FrameAssembler::Arrival::kNewSequence:
+      spdlog::warn("scene seq {} after {}: a new frame sequence", msg.frame_seq, last_finished);
+      break;
+    case FrameAssembler::Arrival::kLate:
+      sink_.note("late or repeated scene " + std::to_string(msg.frame_seq));
+      break;
+    case FrameAssembler::Arrival::kQueued:
+    case FrameAssembler::Arrival::kRepeated:  // our own re-sent scene coming back
+      break;
+  }
+}
+
+void MergerCore::on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  tracker_estimate_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  ObjectEstimate estimate;
+  if (auto error = pose_from_arrays(msg.position, msg.orientation, estimate.pose)) {
+    malformed_.record(channel_name, "invalid estimate", *error);
+    return;
+  }
+  if (!std::isfinite(msg.confidence)) {
+    malformed_.record(channel_name, "invalid estimate", "non-finite confidence");
+    return;
+  }
+  estimate.confidence = msg.confidence;
+  // Only the owner's estimates count: a worker that has not yet heard that its object moved (or
+  // a merger restart) must not overwrite the owner's.
+  if (!workers_.owns(msg.worker_id, msg.object_id)) return;
+  // The owner has finished this frame: it will not send an estimate for it or any earlier frame
+  // (a lost estimate or a skipped scene), so those frames need not wait.
+  workers_.note_progress(msg.object_id, msg.frame_seq);
+  frames_.add_estimate(msg.frame_seq, msg.object_id, estimate);  // too late: that frame went out stale
+}
+
+void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  heartbeat_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  const auto exists = [this](std::int32_t id) { return manager_.objects().count(id) > 0; };
+  const std::int64_t seq = frames_.last_finished_seq();
+  for (const auto& correction : workers_.heartbeat(msg.worker_id, msg.object_id, msg.last_frame_seq, clock_(), exists)) {
+    if (correction.kind == WorkerPool::Correction::Kind::kSendModel) {
+      sink_.send_model(manager_.objects().at(correction.object_id), correction.worker_id, seq);
+    } else {
+      sink_.send_retirement(correction.object_id, seq);
+      // After a restart of this merger: controllers knew that id as another object.
+      manager_.reserve_ids_through(correction.object_id);
+    }
+  }
+}
+
+int MergerCore::step() {
+  const auto now = clock_();
+  workers_.expire(now);
+  assign_idle_workers(now);
+  int finished = 0;
+  for (;;) {
+    const FrameAssembler::Poll poll = frames_.poll(now, workers_);
+    if (!poll.resend_models.empty()) {
+      for (const auto& [object_id, worker_id] : poll.resend_models) {
+        sink_.send_model(manager_.objects().at(object_id), worker_id, frames_.last_finished_seq());
+      }
+      sink_.resend_scene(*poll.resend_scene);
+    }
+    if (!poll.due) break;
+    finish_frame(now);
+    ++finished;
+  }
+  return finished;
+}
+
+// Every object without a live worker goes to the idle worker with the lowest id.
+void MergerCore::assign_idle_workers(Clock::time_point now) {
+  object_ids_.clear();
+  for (const auto& [id, object] : manager_.objects()) object_ids_.push_back(id);
+  for (const auto& [object_id, worker_id] : workers_.assign(object_ids_, now)) {
+    sink_.send_model(manager_.objects().at(object_id), worker_id, frames_.last_finished_seq());
+  }
+}
+
+void MergerCore::finish_frame(Clock::time_point now) {
+  const auto due_at = clock_();
+  const FrameAssembler::DueFrame due = frames_.take(workers_);
+  const std::int64_t seq = due.scene.frame_seq;
+  const ObjectManagerFrame& result = manager_.process(due.scene.cloud, due.scene.cluster, due.estimates);
+  for (const std::int32_t id : result.retired) {
+    spdlog::info("object {} retired (no support)", id);
+    workers_.release(id, now);
+    sink_.send_retirement(id, seq);
+  }
+  for (const std::int32_t id : result.created) spdlog::info("object {} created at frame {}", id, seq);
+  assign_idle_workers(now);
+  // Every owner gets its object's model of this frame (a new object's owner got it on assignment).
+  for (const auto& [object_id, worker_id] : workers_.owners()) {
+    if (std::find(result.created.begin(), result.created.end(), object_id) == result.created.end()) {
+      sink_.send_model(manager_.objects().at(object_id), worker_id, seq);
+    }
+  }
+  sink_.publish_frame({due.scene, result, manager_.objects(), due_at});
+  frames_.finished(clock_());
+}
+
+}  // namespace mfot::service

@@ -1,0 +1,90 @@
+#include "mfot/service/merger_link.hpp"
+
+#include "mfot/service/merger_messages.hpp"
+
+#include <chrono>
+
+namespace mfot::service {
+
+namespace {
+// Frames kept for label images: the scene of a frame arrives a few frames after it at most.
+constexpr std::size_t kFramesKept = 64;
+}  // namespace
+
+MergerCoreOptions merger_core_options(const MergerConfig& config) {
+  MergerCoreOptions options;
+  options.manager = config.manager;
+  options.workers.worker_timeout = std::chrono::milliseconds(config.worker_timeout_ms);
+  options.frames.estimate_timeout = std::chrono::milliseconds(config.estimate_timeout_ms);
+  options.frames.expected_workers = config.expected_workers;
+  options.frames.startup_timeout = std::chrono::milliseconds(config.startup_timeout_ms);
+  return options;
+}
+
+LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const MergerConfig& config,
+                             const std::optional<std::string>& output_dir, bool append)
+    : lcm_(lcm),
+      status_(status),
+      world_from_camera_(config.world_from_camera),
+      fps_(config.fps),
+      write_labels_(config.write_labels) {
+  if (!output_dir) return;
+  outputs_ = std::make_unique<RunOutputs>(
+      *output_dir, append, RunOutputsOptions{config.write_labels, config.fitting_distance, true}, status_.malformed());
+  if (config.write_labels) lcm_.subscribe(channel::kFrame, &LcmMergerLink::on_frame, this);
+}
+
+void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) {
+  const object_model_t msg = model_message(object, worker_id, frame_seq, now_utime());
+  lcm_.publish(channel::kModel, &msg);
+}
+
+void LcmMergerLink::send_retirement(std::int32_t object_id, std::int64_t frame_seq) {
+  const object_model_t msg = retirement_message(object_id, frame_seq, now_utime());
+  lcm_.publish(channel::kModel, &msg);
+}
+
+void LcmMergerLink::resend_scene(std::span<const std::uint8_t> message) {
+  lcm_.publish(channel::kScene, message.data(), static_cast<unsigned>(message.size()));
+}
+
+void LcmMergerLink::publish_frame(const FinishedFrame& frame) {
+  const Scene& scene = frame.scene;
+  const segmentation_t seg = segmentation_message(scene.frame_seq, frame.result.labels, now_utime());
+  lcm_.publish(channel::kSegmentation, &seg);
+  const poses_t poses =
+      poses_message(scene.frame_seq, scene.capture_utime, frame.objects, world_from_camera_, fps_, now_utime());
+  if (outputs_) outputs_->write_poses(scene.frame_seq, scene.capture_utime, frame.objects);
+  lcm_.publish(channel::kPoses, &poses);
+  // The files that only evaluation reads come after the poses, off the frame-to-pose path (in
+  // lockstep the next frame is on its way meanwhile).
+  if (outputs_) {
+    std::optional<frame_t> source;
+    const auto it = frames_.find(scene.frame_seq);
+    if (it != frames_.end()) {
+      source = std::move(it->second);
+      frames_.erase(frames_.begin(), std::next(it));
+    } else if (write_labels_) {
+      status_.set_message("no frame for labels of seq " + std::to_string(scene.frame_seq));
+    }
+    outputs_->write_frame(scene, frame.result.labels, frame.objects, std::move(source));
+  }
+  status_.frame_done(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame.due_at).count());
+}
+
+void LcmMergerLink::on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  frame_t msg;
+  if (!decode_message(rbuf, channel_name, msg, status_.malformed())) return;
+  // Decoded on the output thread: the frame arrives while preprocess works on it, and this
+  // thread's decoding would take the CPU from the frame-to-pose path.
+  const std::int64_t seq = msg.seq;
+  frames_[seq] = std::move(msg);
+  while (frames_.size() > kFramesKept) frames_.erase(frames_.begin());
+}
+
+void LcmMergerLink::finish() {
+  if (outputs_) outputs_->finish();
+}
+
+}  // namespace mfot::service

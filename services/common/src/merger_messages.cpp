@@ -1,0 +1,66 @@
+#include "mfot/service/merger_messages.hpp"
+
+#include "mfot/service/convert.hpp"
+
+namespace mfot::service {
+
+object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq,
+                             std::int64_t utime) {
+  object_model_t msg{};
+  msg.utime = utime;
+  msg.frame_seq = frame_seq;
+  msg.object_id = object.id;
+  msg.worker_id = worker_id;
+  msg.version = object.version;
+  pose_to_arrays(object.pose, msg.position, msg.orientation);
+  for (int i = 0; i < 6; ++i) msg.velocity[i] = object.velocity[i];
+  model_to_message(object.model, msg);
+  return msg;
+}
+
+object_model_t retirement_message(std::int32_t object_id, std::int64_t frame_seq, std::int64_t utime) {
+  object_model_t msg{};
+  msg.utime = utime;
+  msg.frame_seq = frame_seq;
+  msg.object_id = object_id;
+  msg.worker_id = -1;
+  msg.version = -1;
+  msg.orientation[0] = 1;
+  return msg;
+}
+
+poses_t poses_message(std::int64_t frame_seq, std::int64_t capture_utime,
+                      const std::map<std::int32_t, ManagedObject>& objects, const Pose& world_from_camera, float fps,
+                      std::int64_t utime) {
+  poses_t poses;
+  poses.utime = utime;
+  poses.frame_seq = frame_seq;
+  poses.capture_utime = capture_utime;
+  for (const auto& [id, object] : objects) {
+    object_pose_t p{};
+    p.id = id;
+    pose_to_arrays(object.pose, p.position, p.orientation);
+    pose_to_arrays(Pose::from_isometry(world_from_camera.isometry() * object.pose.isometry()), p.world_position,
+                   p.world_orientation);
+    for (int i = 0; i < 3; ++i) {
+      p.linear_velocity[i] = object.velocity[i] * fps;
+      p.angular_velocity[i] = object.velocity[3 + i] * fps;
+    }
+    p.confidence = object.confidence;
+    p.stale = object.stale;
+    poses.objects.push_back(p);
+  }
+  poses.num_objects = static_cast<std::int32_t>(poses.objects.size());
+  return poses;
+}
+
+segmentation_t segmentation_message(std::int64_t frame_seq, std::span<const std::int32_t> labels, std::int64_t utime) {
+  segmentation_t seg;
+  seg.utime = utime;
+  seg.frame_seq = frame_seq;
+  seg.num_points = static_cast<std::int32_t>(labels.size());
+  seg.label.assign(labels.begin(), labels.end());
+  return seg;
+}
+
+}  // namespace mfot::service

@@ -1,0 +1,88 @@
+#include "mfot/service/run_outputs.hpp"
+
+#include "mfot/service/frame_codec.hpp"
+
+#include <thread>
+
+namespace mfot::service {
+
+namespace {
+// Frames whose label image and fitting distances may wait for the output thread before the
+// caller waits for it; it runs this much nicer than the caller's thread.
+constexpr std::size_t kOutputBacklog = 8;
+constexpr int kOutputNiceIncrement = 5;
+}  // namespace
+
+RunOutputs::RunOutputs(const std::string& dir, bool append, RunOutputsOptions options, MalformedCounter& malformed)
+    : options_(options), malformed_(malformed), writer_(dir, append) {
+  if (options_.background) {
+    queue_ = std::make_unique<BackgroundQueue>("run output writer", kOutputBacklog, kOutputNiceIncrement);
+  }
+}
+
+RunOutputs::~RunOutputs() = default;
+
+void RunOutputs::write_poses(std::int64_t frame_seq, std::int64_t capture_utime,
+                             const std::map<std::int32_t, ManagedObject>& objects) {
+  for (const auto& [id, object] : objects) {
+    writer_.write_pose(frame_seq, capture_utime, id, object.pose, object.confidence, object.stale);
+  }
+  writer_.flush_poses();
+}
+
+void RunOutputs::write_frame(const Scene& scene, std::span<const std::int32_t> labels,
+                             const std::map<std::int32_t, ManagedObject>& objects, std::optional<frame_t> frame) {
+  std::vector<FittingInput> fitting;
+  if (options_.fitting_distance && !scene.cloud.empty()) {
+    for (const auto& [id, object] : objects) fitting.push_back({id, object.model.cloud.positions, object.pose});
+  }
+  if (!options_.write_labels) frame.reset();
+  if (!queue_) {
+    write_outputs(scene.frame_seq, scene.cloud.positions, {labels.begin(), labels.end()}, fitting, frame,
+                  scene.voxel_size);
+    return;
+  }
+  queue_->push([this, seq = scene.frame_seq, points = scene.cloud.positions,
+                labels = std::vector<std::int32_t>(labels.begin(), labels.end()), fitting = std::move(fitting),
+                frame = std::move(frame), voxel_size = scene.voxel_size] {
+    write_outputs(seq, points, labels, fitting, frame, voxel_size);
+  });
+}
+
+void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points,
+                               const std::vector<std::int32_t>& labels, const std::vector<FittingInput>& fitting,
+                               const std::optional<frame_t>& frame, float voxel_size) {
+  // The fitting distances and the label image are independent: side by side they keep the output
+  // thread ahead of the frame rate (at ~100 frames/s one after the other did not). Made here so
+  // that its thread inherits the output thread's lower priority. Below 4 cores there is no core to
+  // spare for it (the 2-core dev machine's group is CPU-bound), nor in the caller's own thread.
+  if (!output_split_) {
+    output_split_ = std::make_unique<ThreadPool>(queue_ && std::thread::hardware_concurrency() >= 4 ? 2 : 1);
+  }
+  output_split_->run(2, [&](std::size_t part) {
+    if (part == 0) {
+      if (fitting.empty()) return;
+      fitting_.set_scene(points);
+      for (const auto& object : fitting) {
+        writer_.write_fitting(seq, object.id, fitting_.evaluate(object.model, object.pose).mean);
+      }
+      return;
+    }
+    if (!frame) return;
+    try {
+      const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
+      writer_.write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_size,
+                                             points, labels));
+    } catch (const FrameCodecError& e) {
+      malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
+    }
+  });
+  writer_.flush_fitting();
+}
+
+void RunOutputs::finish() {
+  if (queue_) queue_->finish();
+  writer_.flush();
+}
+
+}  // namespace mfot::service

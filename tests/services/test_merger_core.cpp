@@ -1,0 +1,431 @@
+// The merger's protocol engine without LCM: WorkerPool (registry, liveness, assignment),
+// FrameAssembler (open frames, estimates, timeouts, re-sends) and MergerCore around
+// ObjectManager, driven with encoded messages and a clock moved by hand.
+
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/frame_assembler.hpp"
+#include "mfot/service/merger_core.hpp"
+#include "mfot/service/worker_pool.hpp"
+#include "mfot/tracker_estimate_t.hpp"
+#include "recording_merger_sink.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace mfot::service {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ManualClock;
+using testing::RecordingSink;
+using testing::SentModel;
+using Clock = std::chrono::steady_clock;
+
+const Clock::time_point kT0{std::chrono::seconds(1000)};
+bool always_exists(std::int32_t) { return true; }
+
+// ---- WorkerPool ---------------------------------------------------------------------------------
+
+TEST(WorkerPool, ObjectsGoToTheIdleWorkerWithTheLowestId) {
+  WorkerPool pool(WorkerPoolOptions{});
+  pool.heartbeat(7, -1, -1, kT0, always_exists);
+  pool.heartbeat(3, -1, -1, kT0, always_exists);
+  const std::vector<std::int32_t> objects{1, 2, 5};
+  const auto assigned = pool.assign(objects, kT0);
+  ASSERT_EQ(assigned.size(), 2u);  // three objects, two workers: object 5 waits
+  EXPECT_EQ(assigned[0].object_id, 1);
+  EXPECT_EQ(assigned[0].worker_id, 3);
+  EXPECT_EQ(assigned[1].object_id, 2);
+  EXPECT_EQ(assigned[1].worker_id, 7);
+  EXPECT_FALSE(pool.owner(5));
+  EXPECT_TRUE(pool.owns(3, 1));
+  EXPECT_FALSE(pool.owns(7, 1));
+  EXPECT_TRUE(pool.assign(objects, kT0).empty());  // nothing changes while they live
+}
+
+TEST(WorkerPool, ASilentWorkerIsDeclaredDeadAndItsObjectGoesToAnother) {
+  WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
+  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  const std::vector<std::int32_t> objects{4};
+  ASSERT_EQ(pool.assign(objects, kT0).size(), 1u);
+  pool.note_progress(4, 10);
+  pool.heartbeat(1, -1, -1, kT0 + 900ms, always_exists);
+  EXPECT_TRUE(pool.expire(kT0 + 1000ms).empty());  // exactly the timeout: still alive
+  const auto dead = pool.expire(kT0 + 1001ms);
+  ASSERT_EQ(dead, std::vector<std::int32_t>{0});
+  EXPECT_FALSE(pool.owner(4));
+  EXPECT_FALSE(pool.progress(4));  // the new owner's progress starts afresh
+  EXPECT_EQ(pool.alive_count(), 1);
+  const auto reassigned = pool.assign(objects, kT0 + 1001ms);
+  ASSERT_EQ(reassigned.size(), 1u);
+  EXPECT_EQ(reassigned[0].worker_id, 1);
+  // The dead worker comes back idle, and takes nothing from the live owner.
+  pool.heartbeat(0, 4, 10, kT0 + 1500ms, always_exists);
+  EXPECT_EQ(pool.alive_count(), 2);
+  EXPECT_TRUE(pool.owns(1, 4));
+}
+
+TEST(WorkerPool, AHeartbeatThatDisagreesIsCorrectedOnceTheModelHadTimeToArrive) {
+  WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
+  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  const std::vector<std::int32_t> objects{1};
+  pool.assign(objects, kT0);
+  // Still idle 100 ms after the assignment: the model may be on its way.
+  EXPECT_TRUE(pool.heartbeat(0, -1, -1, kT0 + 100ms, always_exists).empty());
+  // 300 ms after: it was lost; send it again (once per in-flight period).
+  auto corrections = pool.heartbeat(0, -1, -1, kT0 + 300ms, always_exists);
+  ASSERT_EQ(corrections.size(), 1u);
+  EXPECT_EQ(corrections[0].kind, WorkerPool::Correction::Kind::kSendModel);
+  EXPECT_EQ(corrections[0].object_id, 1);
+  EXPECT_EQ(corrections[0].worker_id, 0);
+  EXPECT_TRUE(pool.heartbeat(0, -1, -1, kT0 + 400ms, always_exists).empty());
+  // Holding its object: progress is noted.
+  EXPECT_TRUE(pool.heartbeat(0, 1, 42, kT0 + 450ms, always_exists).empty());
+  EXPECT_EQ(pool.progress(1), 42);
+}
+
+TEST(WorkerPool, AWorkerHoldingAnotherOwnersOrAMissingObjectIsTold) {
+  WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
+  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  pool.heartbeat(1, -1, -1, kT0, always_exists);
+  const std::vector<std::int32_t> objects{1};
+  pool.assign(objects, kT0);  // worker 0 owns object 1
+  // Worker 1 still holds object 1 (it missed the move): told who owns it.
+  auto told = pool.heartbeat(1, 1, 5, kT0 + 300ms, always_exists);
+  ASSERT_EQ(told.size(), 1u);
+  EXPECT_EQ(told[0].kind, WorkerPool::Correction::Kind::kSendModel);
+  EXPECT_EQ(told[0].object_id, 1);
+  EXPECT_EQ(told[0].worker_id, 0);
+  EXPECT_FALSE(pool.progress(1));  // a non-owner's progress does not count
+  // Worker 1 holds object 9, which does not exist (a merger restart): retire it.
+  told = pool.heartbeat(1, 9, 5, kT0 + 600ms, [](std::int32_t id) { return id == 1; });
+  ASSERT_EQ(told.size(), 1u);
+  EXPECT_EQ(told[0].kind, WorkerPool::Correction::Kind::kRetire);
+  EXPECT_EQ(told[0].object_id, 9);
+}
+
+TEST(WorkerPool, AReleasedObjectFreesItsWorker) {
+  WorkerPool pool(WorkerPoolOptions{});
+  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  std::vector<std::int32_t> objects{1};
+  pool.assign(objects, kT0);
+  pool.release(1, kT0);
+  EXPECT_FALSE(pool.owner(1));
+  objects = {2};
+  const auto assigned = pool.assign(objects, kT0);
+  ASSERT_EQ(assigned.size(), 1u);
+  EXPECT_EQ(assigned[0].worker_id, 0);
+}
+
+TEST(WorkerPool, OptionsOutOfRangeAreRefused) {
+  EXPECT_THROW(WorkerPool(WorkerPoolOptions{50ms, 10ms}), std::invalid_argument);
+  EXPECT_THROW(WorkerPool(WorkerPoolOptions{1000ms, 2000ms}), std::invalid_argument);
+}
+
+// ---- FrameAssembler ----------------------------------------------------------------------------
+
+Scene scene_of(std::int64_t seq) {
+  Scene scene;
+  scene.frame_seq = seq;
+  return scene;
+}
+
+ObjectEstimate estimate_at(float x) {
+  ObjectEstimate e;
+  e.pose.translation = Eigen::Vector3f(x, 0.f, 1.f);
+  e.confidence = 0.5f;
+  return e;
+}
+
+struct AssemblerTest : ::testing::Test {
+  FrameAssemblerOptions options() {
+    FrameAssemblerOptions o;
+    o.estimate_timeout = 500ms;
+    return o;
+  }
+  // Workers 0 and 1 own objects 1 and 2.
+  void SetUp() override {
+    pool.heartbeat(0, -1, -1, kT0, always_exists);
+    pool.heartbeat(1, -1, -1, kT0, always_exists);
+    const std::vector<std::int32_t> objects{1, 2};
+    pool.assign(objects, kT0);
+  }
+  WorkerPool pool{WorkerPoolOptions{}};
+};
+
+TEST_F(AssemblerTest, ScenesQueueInOrderAndRepeatsOrLateOnesAreRefused) {
+  FrameAssembler frames(options());
+  EXPECT_EQ(frames.add_scene(scene_of(2), {}, kT0), FrameAssembler::Arrival::kQueued);
+  EXPECT_EQ(frames.add_scene(scene_of(1), {}, kT0), FrameAssembler::Arrival::kQueued);
+  EXPECT_EQ(frames.add_scene(scene_of(2), {}, kT0), FrameAssembler::Arrival::kRepeated);
+  EXPECT_EQ(frames.open_frames(), 2u);
+  const auto later = kT0 + 501ms;  // no estimates: both time out
+  ASSERT_TRUE(frames.poll(later, pool).due);
+  EXPECT_EQ(frames.take(pool).scene.frame_seq, 1);
+  frames.finished(later);
+  EXPECT_FALSE(frames.poll(later, pool).due);  // the timeout of frame 2 runs from frame 1's finish
+  ASSERT_TRUE(frames.poll(later + 501ms, pool).due);
+  EXPECT_EQ(frames.take(pool).scene.frame_seq, 2);
+  EXPECT_EQ(frames.add_scene(scene_of(2), {}, kT0), FrameAssembler::Arrival::kLate);
+  EXPECT_FALSE(frames.add_estimate(2, 1, estimate_at(0.f)));  // too late as well
+  // Far older than the last finished frame: a restarted source.
+  EXPECT_EQ(frames.add_scene(scene_of(2 + 0), {}, kT0), FrameAssembler::Arrival::kLate);
+  FrameAssembler restarted(options());
+  restarted.add_scene(scene_of(500), {}, kT0);
+  restarted.poll(kT0 + 501ms, pool);
+  restarted.take(pool);
+  EXPECT_EQ(restarted.add_scene(scene_of(3), {}, kT0), FrameAssembler::Arrival::kNewSequence);
+  EXPECT_EQ(restarted.last_finished_seq(), -1);
+}
+
+TEST_F(AssemblerTest, AFrameIsDueWhenEveryOwnerAnsweredAndCarriesOnlyTheOwnersEstimates) {
+  FrameAssembler frames(options());
+  frames.add_scene(scene_of(0), {}, kT0);
+  EXPECT_TRUE(frames.add_estimate(0, 1, estimate_at(0.1f)));
+  EXPECT_FALSE(frames.poll(kT0 + 10ms, pool).due);  // object 2's owner has not answered
+  frames.add_estimate(0, 2, estimate_at(0.2f));
+  frames.add_estimate(0, 9, estimate_at(0.9f));  // no owner (the caller filters senders; the owner may be gone)
+  ASSERT_TRUE(frames.poll(kT0 + 10ms, pool).due);
+  const auto due = frames.take(pool);
+  ASSERT_EQ(due.estimates.size(), 2u);
+  EXPECT_FLOAT_EQ(due.estimates.at(1).pose.translation.x(), 0.1f);
+  EXPECT_FLOAT_EQ(due.estimates.at(2).pose.translation.x(), 0.2f);
+}
+
+TEST_F(AssemblerTest, AnOwnerThatFinishedTheFrameWithoutAnEstimateIsNotWaitedFor) {
+  FrameAssembler frames(options());
+  frames.add_scene(scene_of(4), {}, kT0);
+  frames.add_estimate(4, 1, estimate_at(0.1f));
+  pool.note_progress(2, 4);  // object 2's owner skipped frame 4
+  EXPECT_TRUE(frames.poll(kT0 + 1ms, pool).due);
+}
+
+TEST_F(AssemblerTest, AWorkerThatLostTheSceneGetsItAgainAFewTimesAtMost) {
+  FrameAssembler frames(options());
+  const std::vector<std::uint8_t> bytes{1, 2, 3};
+  frames.add_scene(scene_of(0), bytes, kT0);
+  frames.add_estimate(0, 1, estimate_at(0.1f));
+  // Worker 1 heartbeats 300 ms after the scene went out without having finished frame 0.
+  pool.heartbeat(1, 2, -1, kT0 + 300ms, always_exists);
+  auto poll = frames.poll(kT0 + 300ms, pool);
+  EXPECT_FALSE(poll.due);
+  ASSERT_EQ(poll.resend_models.size(), 1u);
+  EXPECT_EQ(poll.resend_models[0].object_id, 2);
+  EXPECT_EQ(poll.resend_models[0].worker_id, 1);
+  ASSERT_NE(poll.resend_scene, nullptr);
+  EXPECT_EQ(*poll.resend_scene, bytes);
+  // Not again before the re-send interval, and not again once it answered.
+  EXPECT_TRUE(frames.poll(kT0 + 350ms, pool).resend_models.empty());
+  FrameAssemblerOptions o = options();
+  o.estimate_timeout = 100000ms;
+  FrameAssembler patient(o);
+  patient.add_scene(scene_of(0), bytes, kT0);
+  int resends = 0;
+  for (int i = 1; i <= 20; ++i) {
+    const auto now = kT0 + i * 300ms;
+    pool.heartbeat(0, 1, -1, now, always_exists);
+    pool.heartbeat(1, 2, -1, now, always_exists);
+    if (!patient.poll(now, pool).resend_models.empty()) ++resends;
+  }
+  EXPECT_EQ(resends, o.max_resends);
+}
+
+TEST_F(AssemblerTest, TheFirstFrameWaitsForTheExpectedWorkersUpToTheStartupTimeout) {
+  FrameAssemblerOptions o = options();
+  o.expected_workers = 3;  // two are alive
+  o.startup_timeout = 2000ms;
+  FrameAssembler frames(o);
+  frames.add_scene(scene_of(0), {}, kT0);
+  pool.note_progress(1, 0);
+  pool.note_progress(2, 0);
+  EXPECT_FALSE(frames.poll(kT0 + 1999ms, pool).due);
+  EXPECT_TRUE(frames.poll(kT0 + 2001ms, pool).due);
+}
+
+// ---- MergerCore ---------------------------------------------------------------------------------
+
+using Bytes = std::vector<std::uint8_t>;
+
+template <class T>
+Bytes encode(const T& message) {
+  Bytes bytes(static_cast<std::size_t>(message.getEncodedSize()));
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// A 12 x 12 x 2 block of 5 mm voxels around (x, 0, 0.9), one cluster.
+scene_cloud_t block_scene(std::int64_t seq, float x) {
+  scene_cloud_t msg{};
+  msg.frame_seq = seq;
+  msg.capture_utime = 1000 * seq;
+  msg.width = 640;
+  msg.height = 480;
+  msg.fx = msg.fy = 525.0f;
+  msg.cx = 320.f;
+  msg.cy = 240.f;
+  msg.voxel_size = 0.005f;
+  msg.plane[1] = 1.f;
+  msg.num_clusters = 1;
+  for (int i = 0; i < 12; ++i) {
+    for (int j = 0; j < 12; ++j) {
+      for (int k = 0; k < 2; ++k) {
+        msg.x.push_back(x + 0.005f * static_cast<float>(i));
+        msg.y.push_back(0.005f * static_cast<float>(j));
+        msg.z.push_back(0.9f + 0.005f * static_cast<float>(k));
+        msg.r.push_back(200);
+        msg.g.push_back(30);
+        msg.b.push_back(30);
+        msg.u.push_back(static_cast<std::int16_t>(320 + i));
+        msg.v.push_back(static_cast<std::int16_t>(240 + j));
+        msg.cluster.push_back(0);
+      }
+    }
+  }
+  msg.num_points = static_cast<std::int32_t>(msg.x.size());
+  return msg;
+}
+
+heartbeat_t heartbeat_of(std::int32_t worker, std::int32_t object, std::int64_t last_seq) {
+  heartbeat_t msg{};
+  msg.worker_id = worker;
+  msg.object_id = object;
+  msg.last_frame_seq = last_seq;
+  return msg;
+}
+
+tracker_estimate_t estimate_of(std::int64_t seq, std::int32_t object, std::int32_t worker, const Pose& pose) {
+  tracker_estimate_t msg{};
+  msg.frame_seq = seq;
+  msg.object_id = object;
+  msg.worker_id = worker;
+  pose_to_arrays(pose, msg.position, msg.orientation);
+  msg.confidence = 0.8f;
+  return msg;
+}
+
+struct MergerCoreTest : ::testing::Test {
+  MergerCoreOptions options() {
+    MergerCoreOptions o;
+    o.workers.worker_timeout = 1000ms;
+    o.frames.estimate_timeout = 500ms;
+    return o;
+  }
+  template <class T>
+  void deliver(void (MergerCore::*handler)(const lcm::ReceiveBuffer*, const std::string&), const T& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (core.*handler)(&buffer, "TEST");
+  }
+  RecordingSink sink;
+  MalformedCounter malformed;
+  ManualClock clock;
+  MergerCore core{options(), sink, malformed, clock.function()};
+};
+
+TEST_F(MergerCoreTest, AFrameWithoutObjectsCreatesThemAndHandsThemToWorkers) {
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  EXPECT_EQ(core.step(), 1);  // no owners yet: nothing to wait for
+  ASSERT_EQ(sink.frames.size(), 1u);
+  EXPECT_EQ(sink.frames[0].created, std::vector<std::int32_t>{1});
+  ASSERT_EQ(sink.models.size(), 1u);
+  EXPECT_EQ(sink.models[0].object_id, 1);
+  EXPECT_EQ(sink.models[0].worker_id, 0);
+  EXPECT_EQ(sink.models[0].frame_seq, 0);
+  EXPECT_TRUE(core.workers().owns(0, 1));
+
+  // Frame 1 waits for its owner; a non-owner's estimate does not count.
+  deliver(&MergerCore::on_scene, block_scene(1, 0.01f));
+  EXPECT_EQ(core.step(), 0);
+  Pose moved = sink.frames[0].poses.at(1);
+  moved.translation.x() += 0.01f;
+  deliver(&MergerCore::on_estimate, estimate_of(1, 1, 5, moved));
+  EXPECT_EQ(core.step(), 0);
+  deliver(&MergerCore::on_estimate, estimate_of(1, 1, 0, moved));
+  EXPECT_EQ(core.step(), 1);
+  ASSERT_EQ(sink.frames.size(), 2u);
+  EXPECT_FALSE(sink.frames[1].stale.at(1));
+  EXPECT_NEAR(sink.frames[1].poses.at(1).translation.x(), moved.translation.x(), 1e-6f);
+  // Its owner got the model of frame 1.
+  EXPECT_EQ(sink.models.back().frame_seq, 1);
+  EXPECT_EQ(sink.models.back().worker_id, 0);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(MergerCoreTest, AMissingEstimateLeavesThePoseStaleAfterTheTimeout) {
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  core.step();
+  deliver(&MergerCore::on_scene, block_scene(1, 0.f));
+  clock.advance(400ms);
+  EXPECT_EQ(core.step(), 0);
+  clock.advance(200ms);
+  EXPECT_EQ(core.step(), 1);
+  EXPECT_TRUE(sink.frames.back().stale.at(1));
+}
+
+TEST_F(MergerCoreTest, ADeadWorkersObjectMovesWithItsIdModelAndPoseToAnother) {
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  core.step();
+  const SentModel first = sink.models.back();
+  clock.advance(100ms);
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(1, -1, -1));  // a second worker joins, idle
+  core.step();
+  clock.advance(600ms);
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(1, -1, -1));
+  core.step();
+  EXPECT_TRUE(core.workers().owns(0, 1));
+  clock.advance(500ms);  // worker 0 silent for 1.2 s
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(1, -1, -1));
+  core.step();
+  EXPECT_TRUE(core.workers().owns(1, 1));
+  const SentModel moved = sink.models.back();
+  EXPECT_EQ(moved.object_id, 1);
+  EXPECT_EQ(moved.worker_id, 1);
+  EXPECT_EQ(moved.model_points, first.model_points);
+  EXPECT_TRUE(moved.pose.translation.isApprox(first.pose.translation));
+}
+
+TEST_F(MergerCoreTest, AWorkerHoldingAnUnknownObjectIsToldToRetireItAndItsIdIsNotReused) {
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(3, 7, 20));  // from before a merger restart
+  clock.advance(100ms);
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(3, 7, 20));  // the retirement may be on its way
+  ASSERT_EQ(sink.retirements.size(), 1u);
+  EXPECT_EQ(sink.retirements[0].first, 7);
+  deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  core.step();
+  ASSERT_EQ(sink.frames.back().created.size(), 1u);
+  EXPECT_GT(sink.frames.back().created[0], 7);
+}
+
+TEST_F(MergerCoreTest, MalformedMessagesAreCountedAndTheCoreKeepsServing) {
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  Bytes truncated = encode(block_scene(0, 0.f));
+  truncated.resize(truncated.size() / 2);
+  const lcm::ReceiveBuffer half{truncated.data(), static_cast<std::uint32_t>(truncated.size()), 0};
+  core.on_scene(&half, "MFOT_SCENE");
+  EXPECT_EQ(malformed.total(), 1);
+  EXPECT_EQ(core.open_frames(), 0u);
+  deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  core.step();
+  ASSERT_EQ(sink.frames.size(), 1u);
+  deliver(&MergerCore::on_scene, block_scene(1, 0.f));
+  Pose pose = sink.frames[0].poses.at(1);
+  auto bad = estimate_of(1, 1, 0, pose);
+  bad.position[0] = std::numeric_limits<double>::quiet_NaN();
+  deliver(&MergerCore::on_estimate, bad);
+  bad = estimate_of(1, 1, 0, pose);
+  bad.confidence = std::numeric_limits<float>::infinity();
+  deliver(&MergerCore::on_estimate, bad);
+  EXPECT_EQ(malformed.total(), 3);
+  EXPECT_EQ(core.step(), 0);  // neither counted as the owner's answer
+  deliver(&MergerCore::on_estimate, estimate_of(1, 1, 0, pose));
+  EXPECT_EQ(core.step(), 1);
+}
+
+}  // namespace
+}  // namespace mfot::service
