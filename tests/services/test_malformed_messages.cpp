@@ -1,6 +1,7 @@
 // Every message type a service subscribes to, fed malformed bytes the way the services take them:
-// decode_message() and then the conversion the subscriber applies (decode_frame,
-// scene_from_message, model_from_message, pose_from_arrays). Each malformed message must be
+// the merger's scenes, estimates and heartbeats through its own handlers (MergerCore), the others
+// through decode_message() and the conversion the subscriber applies (decode_frame,
+// model_from_message). Each malformed message must be
 // rejected and counted once in the MalformedCounter, and valid messages must still pass after it.
 
 #include "mfot/frame_t.hpp"
@@ -12,7 +13,9 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/merger_core.hpp"
 #include "mfot/tracker_estimate_t.hpp"
+#include "recording_merger_sink.hpp"
 
 #include <gtest/gtest.h>
 
@@ -71,16 +74,26 @@ bool accept_frame(const Bytes& bytes, MalformedCounter& malformed) {
   return true;
 }
 
-// tracker / merger on MFOT_SCENE.
+// The merger's own handlers (MergerCore), on a fresh core: a message is accepted when nothing was
+// counted as malformed.
+bool merger_accepts(void (MergerCore::*handler)(const lcm::ReceiveBuffer*, const std::string&), Bytes bytes,
+                    MalformedCounter& malformed, const char* channel_name, std::size_t* open_frames = nullptr) {
+  testing::RecordingSink sink;
+  testing::ManualClock clock;
+  MergerCore core(MergerCoreOptions{}, sink, malformed, clock.function());
+  const std::int64_t before = malformed.total();
+  const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+  (core.*handler)(&buffer, channel_name);
+  if (open_frames != nullptr) *open_frames = core.open_frames();
+  return malformed.total() == before;
+}
+
+// tracker / merger on MFOT_SCENE (the merger's handler; an accepted scene opens a frame).
 bool accept_scene(const Bytes& bytes, MalformedCounter& malformed) {
-  scene_cloud_t message;
-  if (!decode(bytes, message, malformed, channel::kScene)) return false;
-  Scene scene;
-  if (auto error = scene_from_message(message, scene)) {
-    malformed.record(channel::kScene, "invalid scene", *error);
-    return false;
-  }
-  return true;
+  std::size_t open_frames = 0;
+  const bool accepted = merger_accepts(&MergerCore::on_scene, bytes, malformed, channel::kScene, &open_frames);
+  EXPECT_EQ(open_frames, accepted ? 1u : 0u);
+  return accepted;
 }
 
 // tracker on MFOT_MODEL.
@@ -99,21 +112,15 @@ bool accept_model(const Bytes& bytes, MalformedCounter& malformed) {
 
 // merger on MFOT_ESTIMATE.
 bool accept_estimate(const Bytes& bytes, MalformedCounter& malformed) {
-  tracker_estimate_t message;
-  if (!decode(bytes, message, malformed, channel::kEstimate)) return false;
-  Pose pose;
-  if (auto error = pose_from_arrays(message.position, message.orientation, pose)) {
-    malformed.record(channel::kEstimate, "invalid estimate", *error);
-    return false;
-  }
-  return true;
+  return merger_accepts(&MergerCore::on_estimate, bytes, malformed, channel::kEstimate);
 }
 
-// merger on MFOT_HEARTBEAT and capture (lockstep) on MFOT_POSES take the decoded message as is.
+// merger on MFOT_HEARTBEAT.
 bool accept_heartbeat(const Bytes& bytes, MalformedCounter& malformed) {
-  heartbeat_t message;
-  return decode(bytes, message, malformed, channel::kHeartbeat);
+  return merger_accepts(&MergerCore::on_heartbeat, bytes, malformed, channel::kHeartbeat);
 }
+
+// capture (lockstep) on MFOT_POSES takes the decoded message as is.
 bool accept_poses(const Bytes& bytes, MalformedCounter& malformed) {
   poses_t message;
   return decode(bytes, message, malformed, channel::kPoses);
@@ -383,6 +390,9 @@ TEST(MalformedMessages, NonFiniteCoordinatesAreRejected) {
     auto orientation = make_estimate();
     orientation.orientation[2] = value;
     estimates.push_back(encode(orientation));
+    auto confidence = make_estimate();
+    confidence.confidence = static_cast<float>(value);
+    estimates.push_back(encode(confidence));
   }
   auto not_unit = make_estimate();
   not_unit.orientation[0] = 0.0;
