@@ -128,7 +128,7 @@ class PipelineTest(unittest.TestCase):
             res = subprocess.run([str(REPO / "scripts/bundle"), str(BUILD), str(bundle)], capture_output=True, text=True,
                                  timeout=300)
             self.assertEqual(res.returncode, 0, res.stdout + res.stderr)
-            for service in ("capture", "preprocess", "tracker", "merger", "replay"):
+            for service in ("capture", "preprocess", "tracker", "merger"):
                 self.assertTrue((bundle / "services" / service / f"mfot-{service}").is_file(), service)
             self.assertTrue((bundle / "bin/lcm-logger").is_file())
             self.assertTrue(any((bundle / "lib").glob("liblcm.so*")))

@@ -17,7 +17,7 @@ CONFIG_REFUSED = 2  # run_service_main's exit status for a ConfigError
 # A port no other test uses, host-local: a binary that wrongly accepted a config must not disturb others.
 LCM_URL = "udpm://239.255.76.67:7695?ttl=0"
 
-# Service -> (binary, extra arguments). mfot-replay takes no config (only a log and flags).
+# Service -> (binary, extra arguments).
 SERVICES = {
     "capture": ("services/capture/mfot-capture", []),
     "preprocess": ("services/preprocess/mfot-preprocess", []),
@@ -120,8 +120,9 @@ class BadConfigTest(unittest.TestCase):
         self.assertIn("1 frames", output)
 
     def test_replay_refuses_a_missing_log(self):
-        res = subprocess.run([str(BUILD / "services/replay/mfot-replay"), str(Path(self.tmp.name) / "none.lcmlog"),
-                              "--lcm-url", LCM_URL], capture_output=True, text=True, timeout=60)
+        res = subprocess.run([str(BUILD / "services/capture/mfot-capture"), "--config", str(REPO / "configs/default.yaml"),
+                              "--source", "lcmlog", "--log", str(Path(self.tmp.name) / "none.lcmlog"), "--lcm-url", LCM_URL],
+                             capture_output=True, text=True, timeout=60)
         self.assertNotEqual(res.returncode, 0)
         self.assertIn("none.lcmlog", res.stdout + res.stderr)
 

@@ -1,5 +1,6 @@
 #include "mfot/capture/capture_settings.hpp"
 
+#include "mfot/capture/lcmlog_source.hpp"
 #include "mfot/capture/sim_source.hpp"
 #include "mfot/capture/tum_source.hpp"
 #ifdef MFOT_HAVE_OPENNI2
@@ -15,9 +16,9 @@ namespace mfot::capture {
 using service::ConfigError;
 
 void CaptureSettings::validate() const {
-  const std::vector<std::string> sources = {"sim", "tum", "oni", "openni2"};
+  const std::vector<std::string> sources = {"sim", "tum", "oni", "openni2", "lcmlog"};
   if (std::find(sources.begin(), sources.end(), source) == sources.end()) {
-    throw ConfigError("capture.source: '" + source + "' is not one of sim|tum|oni|openni2");
+    throw ConfigError("capture.source: '" + source + "' is not one of sim|tum|oni|openni2|lcmlog");
   }
   if (!(std::isfinite(speed) && speed > 0.0 && speed <= 100.0)) {
     throw ConfigError("capture.speed: " + std::to_string(speed) + " is out of range (0, 100]");
@@ -50,6 +51,7 @@ void CaptureSettings::validate() const {
   if (!(std::isfinite(max_time_difference_s) && max_time_difference_s > 0.0)) {
     throw ConfigError("capture.max_time_difference_s: must be > 0");
   }
+  if (source == "lcmlog" && log_file.empty()) throw ConfigError("capture.log_file: required for source lcmlog (--log)");
   if (source == "oni" && oni_file.empty()) throw ConfigError("capture.oni_file: required for source oni (--oni)");
   if (!(std::isfinite(reopen_max_backoff_s) && reopen_max_backoff_s >= 0.5 && reopen_max_backoff_s <= 600.0)) {
     throw ConfigError("capture.reopen_max_backoff_s: out of range [0.5, 600]");
@@ -58,7 +60,7 @@ void CaptureSettings::validate() const {
 
 CaptureSettings load_capture_settings(service::ConfigSection section) {
   CaptureSettings s;
-  s.source = section.choice("source", s.source, {"sim", "tum", "oni", "openni2"});
+  s.source = section.choice("source", s.source, {"sim", "tum", "oni", "openni2", "lcmlog"});
   s.rate = parse_rate_mode(section.choice("rate", to_string(s.rate), {"realtime", "fast", "lockstep"}));
   s.speed = section.get<double>("speed", s.speed, 1e-3, 100.0);
   s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", s.lockstep_timeout_s, 1e-3, 3600.0);
@@ -85,6 +87,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.depth_scale = section.get<double>("depth_scale", s.depth_scale, 1e-3, 1e9);
   s.max_time_difference_s = section.get<double>("max_time_difference_s", s.max_time_difference_s, 1e-6, 10.0);
 
+  s.log_file = section.get<std::string>("log_file", s.log_file);
   s.oni_file = section.get<std::string>("oni_file", s.oni_file);
   s.device_uri = section.get<std::string>("device_uri", s.device_uri);
   s.reopen_max_backoff_s = section.get<double>("reopen_max_backoff_s", s.reopen_max_backoff_s, 0.5, 600.0);
@@ -127,6 +130,7 @@ std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::f
       throw CaptureError(e.what());
     }
   }
+  if (settings.source == "lcmlog") return std::make_unique<LcmLogSource>(settings.log_file);
 #ifdef MFOT_HAVE_OPENNI2
   OpenNiOptions options;
   options.file = settings.source == "oni";

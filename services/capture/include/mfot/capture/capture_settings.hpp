@@ -15,7 +15,7 @@
 namespace mfot::capture {
 
 struct CaptureSettings {
-  std::string source = "sim";           // sim | tum | oni | openni2
+  std::string source = "sim";           // sim | tum | oni | openni2 | lcmlog
   RateMode rate = RateMode::kRealtime;
   double speed = 1.0;                   // real-time playback factor, (0, 100]
   double lockstep_timeout_s = 5.0;      // wait for MFOT_POSES before warning and moving on, (0, 3600]
@@ -36,6 +36,8 @@ struct CaptureSettings {
   std::string tum_folder;
   double depth_scale = 5000.0;          // depth PNG units per metre
   double max_time_difference_s = 0.02;  // rgb/depth association tolerance
+  // lcmlog: the MFOT_FRAME events of a recorded run, as recorded (replay)
+  std::string log_file;
   // oni
   std::string oni_file;
   // openni2

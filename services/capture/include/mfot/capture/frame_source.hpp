@@ -22,6 +22,9 @@ struct SourceFrame {
   // Ground truth when the source knows it (simulator; TUM folders with groundtruth/); its
   // `frame` field is the source index.
   std::optional<service::GroundTruthFrame> truth;
+  // The frame as it travelled when the source recorded it encoded (an lcm log): published as is,
+  // so a replay is bit for bit the recording; `frame` then carries its capture time only.
+  std::optional<frame_t> encoded;
 };
 
 class FrameSource {

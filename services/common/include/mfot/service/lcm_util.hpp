@@ -32,7 +32,7 @@ inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_
 inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
 }  // namespace channel
 
-// Lockstep sources (mfot-capture, mfot-replay) keep at most this many frames out whose poses have
+// Lockstep sources (mfot-capture, also replaying a log) keep at most this many frames out whose poses have
 // not come back (capture.lockstep_window). One: a frame's latency is its own processing time (more
 // frames in flight raise throughput, since preprocessing of the next frame overlaps tracking and
 // merging of this one, but each frame then also waits for those ahead of it); the results are the

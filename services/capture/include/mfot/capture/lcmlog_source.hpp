@@ -1,0 +1,39 @@
+#pragma once
+// The frames of a recorded lcm log (lcm-logger's file of a run): every MFOT_FRAME event in log
+// order, published as recorded (SourceFrame::encoded), so replaying a log through a fresh process
+// group in lockstep reproduces its poses and segmentation bit for bit. Undecodable events are
+// skipped and counted; a file that is not an lcm log is refused when opened.
+
+#include "mfot/capture/frame_source.hpp"
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace mfot::capture {
+
+class LcmLogSource : public FrameSource {
+ public:
+  // Throws CaptureError naming the file when it cannot be opened.
+  explicit LcmLogSource(std::string path);
+
+  std::optional<SourceFrame> next() override;
+  std::string name() const override { return "lcmlog:" + path_; }
+  std::string kind() const override { return "lcmlog"; }
+  bool rewind() override;
+
+  // MFOT_FRAME events that did not decode, so far.
+  std::int64_t undecodable() const { return undecodable_; }
+
+ private:
+  void open();
+
+  std::string path_;
+  std::unique_ptr<lcm::LogFile> log_;
+  std::int64_t index_ = 0;
+  std::int64_t undecodable_ = 0;
+};
+
+}  // namespace mfot::capture
