@@ -11,6 +11,7 @@
 #include "mfot/preprocessing.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/config.hpp"
+#include "mfot/service/convert.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/frame_codec.hpp"
@@ -90,44 +91,10 @@ class PreprocessService {
       status_.malformed().record(channel::kFrame, "invalid frame", e.what());
       return;
     }
-    fill_message(message, frame);
+    scene_to_message(preprocessor_.scene(), message, preprocessor_.options().voxel_size, out_);
+    out_.utime = now_utime();
     lcm_.publish(channel::kScene, &out_);
     status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-
-  void fill_message(const frame_t& message, const Frame& frame) {
-    const SceneCloud& scene = preprocessor_.scene();
-    const auto n = scene.size();
-    out_.utime = now_utime();
-    out_.frame_seq = message.seq;
-    out_.capture_utime = message.capture_utime;
-    out_.width = frame.width;
-    out_.height = frame.height;
-    out_.fx = frame.fx;
-    out_.fy = frame.fy;
-    out_.cx = frame.cx;
-    out_.cy = frame.cy;
-    out_.voxel_size = preprocessor_.options().voxel_size;
-    for (int i = 0; i < 4; ++i) out_.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
-    out_.num_points = static_cast<std::int32_t>(n);
-    out_.x.resize(n);
-    out_.y.resize(n);
-    out_.z.resize(n);
-    out_.r.resize(n);
-    out_.g.resize(n);
-    out_.b.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      out_.x[i] = scene.positions[i].x();
-      out_.y[i] = scene.positions[i].y();
-      out_.z[i] = scene.positions[i].z();
-      out_.r[i] = scene.colors[i].r;
-      out_.g[i] = scene.colors[i].g;
-      out_.b[i] = scene.colors[i].b;
-    }
-    out_.u.assign(scene.pixel_u.begin(), scene.pixel_u.end());
-    out_.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
-    out_.cluster.assign(scene.cluster.begin(), scene.cluster.end());
-    out_.num_clusters = scene.num_clusters;
   }
 
   lcm::LCM& lcm_;

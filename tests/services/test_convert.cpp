@@ -217,5 +217,44 @@ TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
   EXPECT_EQ(scene.cloud.size(), 6u);
 }
 
+TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame) {
+  SceneCloud cloud;
+  for (int i = 0; i < 5; ++i) {
+    cloud.positions.emplace_back(0.01f * static_cast<float>(i), -0.02f, 0.9f + 0.001f * static_cast<float>(i));
+    cloud.colors.push_back(Rgb8{static_cast<std::uint8_t>(40 * i), 7, 9});
+    cloud.pixel_u.push_back(static_cast<std::int16_t>(100 + i));
+    cloud.pixel_v.push_back(static_cast<std::int16_t>(50 + i));
+    cloud.cluster.push_back(i < 3 ? 0 : -1);
+  }
+  cloud.num_clusters = 1;
+  cloud.plane.valid = true;
+  cloud.plane.coefficients = Eigen::Vector4f(0.f, -1.f, 0.f, 0.8f);
+  frame_t source{};
+  source.seq = 17;
+  source.capture_utime = 123456;
+  source.width = 640;
+  source.height = 480;
+  source.fx = source.fy = 570.f;
+  source.cx = 319.5f;
+  source.cy = 239.5f;
+  scene_cloud_t msg{};
+  msg.x.assign(100, 1.f);  // a reused message's old contents must go
+  scene_to_message(cloud, source, 0.005f, msg);
+  EXPECT_EQ(msg.frame_seq, 17);
+  EXPECT_EQ(msg.width, 640);
+  EXPECT_EQ(msg.fx, 570.f);
+  EXPECT_EQ(msg.plane[1], -1.f);
+  EXPECT_EQ(msg.u, cloud.pixel_u);
+  EXPECT_EQ(msg.v, cloud.pixel_v);
+  Scene scene;
+  ASSERT_FALSE(scene_from_message(msg, scene).has_value());
+  EXPECT_EQ(scene.frame_seq, 17);
+  EXPECT_EQ(scene.capture_utime, 123456);
+  EXPECT_EQ(scene.voxel_size, 0.005f);
+  EXPECT_EQ(scene.cloud.positions, cloud.positions);
+  EXPECT_EQ(scene.cluster, std::vector<std::int32_t>(cloud.cluster.begin(), cloud.cluster.end()));
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(scene.cloud.colors[i].r, cloud.colors[i].r);
+}
+
 }  // namespace
 }  // namespace mfot::service

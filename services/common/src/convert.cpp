@@ -38,6 +38,39 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
   return std::nullopt;
 }
 
+void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out) {
+  const auto n = scene.size();
+  out.frame_seq = source.seq;
+  out.capture_utime = source.capture_utime;
+  out.width = source.width;
+  out.height = source.height;
+  out.fx = source.fx;
+  out.fy = source.fy;
+  out.cx = source.cx;
+  out.cy = source.cy;
+  out.voxel_size = voxel_size;
+  for (int i = 0; i < 4; ++i) out.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
+  out.num_points = static_cast<std::int32_t>(n);
+  out.x.resize(n);
+  out.y.resize(n);
+  out.z.resize(n);
+  out.r.resize(n);
+  out.g.resize(n);
+  out.b.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    out.x[i] = scene.positions[i].x();
+    out.y[i] = scene.positions[i].y();
+    out.z[i] = scene.positions[i].z();
+    out.r[i] = scene.colors[i].r;
+    out.g[i] = scene.colors[i].g;
+    out.b[i] = scene.colors[i].b;
+  }
+  out.u.assign(scene.pixel_u.begin(), scene.pixel_u.end());
+  out.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
+  out.cluster.assign(scene.cluster.begin(), scene.cluster.end());
+  out.num_clusters = scene.num_clusters;
+}
+
 std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out) {
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(position[i])) return "non-finite position";

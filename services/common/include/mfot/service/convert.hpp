@@ -3,8 +3,10 @@
 // fails (inconsistent sizes, NaN/Inf coordinates, non-unit quaternion) is reported as a string
 // naming the problem and never reaches the core.
 
+#include "mfot/frame_t.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/object_model_t.hpp"
+#include "mfot/preprocessing.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/types.hpp"
 
@@ -25,6 +27,9 @@ struct Scene {
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.
 std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& out);
+// The preprocessed scene of `source` (its seq, capture time, size and intrinsics) into `out`,
+// reusing its buffers; utime is left to the publisher.
+void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out);
 
 std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out);
 void pose_to_arrays(const Pose& pose, double position[3], double orientation[4]);
