@@ -79,7 +79,8 @@ class TrackerWorker {
       status_.malformed().record(chan, "invalid model", "frame_seq below -1");
       return;
     }
-    if (msg.worker_id != worker_id_) {
+    // Addressed to this worker id in another process (two processes given one id): not ours.
+    if (msg.worker_id != worker_id_ || msg.worker_instance != process_instance()) {
       scenes_.frame_finished(msg.frame_seq);
       if (object_id_ == msg.object_id) {
         spdlog::info("object {} {}", object_id_, msg.worker_id < 0 ? "retired" : "moved to another worker");
@@ -191,6 +192,8 @@ class TrackerWorker {
     heartbeat_t hb{};
     hb.utime = now_utime();
     hb.worker_id = worker_id_;
+    hb.instance = process_instance();
+    hb.host = host_name();
     hb.object_id = object_id_;
     hb.last_frame_seq = scenes_.last_done();
     skipped_at_heartbeat_ = scenes_.skipped();

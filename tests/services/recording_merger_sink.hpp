@@ -13,6 +13,7 @@ namespace mfot::service::testing {
 struct SentModel {
   std::int32_t object_id;
   std::int32_t worker_id;
+  std::int64_t worker_instance;
   std::int64_t frame_seq;
   Pose pose;
   std::size_t model_points;
@@ -29,8 +30,9 @@ struct PublishedFrame {
 
 class RecordingSink : public MergerSink {
  public:
-  void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) override {
-    models.push_back({object.id, worker_id, frame_seq, object.pose, object.model.cloud.size()});
+  void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                  std::int64_t frame_seq) override {
+    models.push_back({object.id, worker_id, worker_instance, frame_seq, object.pose, object.model.cloud.size()});
   }
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override {
     retirements.emplace_back(object_id, frame_seq);

@@ -27,12 +27,18 @@ using Clock = std::chrono::steady_clock;
 const Clock::time_point kT0{std::chrono::seconds(1000)};
 bool always_exists(std::int32_t) { return true; }
 
+// A heartbeat of worker `worker` (process instance `instance` on host `host`).
+WorkerPool::Heartbeat beat(std::int32_t worker, std::int32_t held, std::int64_t last_seq, std::int64_t instance = 1,
+                           const std::string& host = "host-a") {
+  return {worker, instance, host, held, last_seq};
+}
+
 // ---- WorkerPool ---------------------------------------------------------------------------------
 
 TEST(WorkerPool, ObjectsGoToTheIdleWorkerWithTheLowestId) {
   WorkerPool pool(WorkerPoolOptions{});
-  pool.heartbeat(7, -1, -1, kT0, always_exists);
-  pool.heartbeat(3, -1, -1, kT0, always_exists);
+  pool.heartbeat(beat(7, -1, -1), kT0, always_exists);
+  pool.heartbeat(beat(3, -1, -1), kT0, always_exists);
   const std::vector<std::int32_t> objects{1, 2, 5};
   const auto assigned = pool.assign(objects, kT0);
   ASSERT_EQ(assigned.size(), 2u);  // three objects, two workers: object 5 waits
@@ -48,11 +54,11 @@ TEST(WorkerPool, ObjectsGoToTheIdleWorkerWithTheLowestId) {
 
 TEST(WorkerPool, ASilentWorkerIsDeclaredDeadAndItsObjectGoesToAnother) {
   WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
-  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  pool.heartbeat(beat(0, -1, -1), kT0, always_exists);
   const std::vector<std::int32_t> objects{4};
   ASSERT_EQ(pool.assign(objects, kT0).size(), 1u);
   pool.note_progress(4, 10);
-  pool.heartbeat(1, -1, -1, kT0 + 900ms, always_exists);
+  pool.heartbeat(beat(1, -1, -1), kT0 + 900ms, always_exists);
   EXPECT_TRUE(pool.expire(kT0 + 1000ms).empty());  // exactly the timeout: still alive
   const auto dead = pool.expire(kT0 + 1001ms);
   ASSERT_EQ(dead, std::vector<std::int32_t>{0});
@@ -63,45 +69,45 @@ TEST(WorkerPool, ASilentWorkerIsDeclaredDeadAndItsObjectGoesToAnother) {
   ASSERT_EQ(reassigned.size(), 1u);
   EXPECT_EQ(reassigned[0].worker_id, 1);
   // The dead worker comes back idle, and takes nothing from the live owner.
-  pool.heartbeat(0, 4, 10, kT0 + 1500ms, always_exists);
+  pool.heartbeat(beat(0, 4, 10), kT0 + 1500ms, always_exists);
   EXPECT_EQ(pool.alive_count(), 2);
   EXPECT_TRUE(pool.owns(1, 4));
 }
 
 TEST(WorkerPool, AHeartbeatThatDisagreesIsCorrectedOnceTheModelHadTimeToArrive) {
   WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
-  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  pool.heartbeat(beat(0, -1, -1), kT0, always_exists);
   const std::vector<std::int32_t> objects{1};
   pool.assign(objects, kT0);
   // Still idle 100 ms after the assignment: the model may be on its way.
-  EXPECT_TRUE(pool.heartbeat(0, -1, -1, kT0 + 100ms, always_exists).empty());
+  EXPECT_TRUE(pool.heartbeat(beat(0, -1, -1), kT0 + 100ms, always_exists).corrections.empty());
   // 300 ms after: it was lost; send it again (once per in-flight period).
-  auto corrections = pool.heartbeat(0, -1, -1, kT0 + 300ms, always_exists);
+  auto corrections = pool.heartbeat(beat(0, -1, -1), kT0 + 300ms, always_exists).corrections;
   ASSERT_EQ(corrections.size(), 1u);
   EXPECT_EQ(corrections[0].kind, WorkerPool::Correction::Kind::kSendModel);
   EXPECT_EQ(corrections[0].object_id, 1);
   EXPECT_EQ(corrections[0].worker_id, 0);
-  EXPECT_TRUE(pool.heartbeat(0, -1, -1, kT0 + 400ms, always_exists).empty());
+  EXPECT_TRUE(pool.heartbeat(beat(0, -1, -1), kT0 + 400ms, always_exists).corrections.empty());
   // Holding its object: progress is noted.
-  EXPECT_TRUE(pool.heartbeat(0, 1, 42, kT0 + 450ms, always_exists).empty());
+  EXPECT_TRUE(pool.heartbeat(beat(0, 1, 42), kT0 + 450ms, always_exists).corrections.empty());
   EXPECT_EQ(pool.progress(1), 42);
 }
 
 TEST(WorkerPool, AWorkerHoldingAnotherOwnersOrAMissingObjectIsTold) {
   WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
-  pool.heartbeat(0, -1, -1, kT0, always_exists);
-  pool.heartbeat(1, -1, -1, kT0, always_exists);
+  pool.heartbeat(beat(0, -1, -1), kT0, always_exists);
+  pool.heartbeat(beat(1, -1, -1), kT0, always_exists);
   const std::vector<std::int32_t> objects{1};
   pool.assign(objects, kT0);  // worker 0 owns object 1
   // Worker 1 still holds object 1 (it missed the move): told who owns it.
-  auto told = pool.heartbeat(1, 1, 5, kT0 + 300ms, always_exists);
+  auto told = pool.heartbeat(beat(1, 1, 5), kT0 + 300ms, always_exists).corrections;
   ASSERT_EQ(told.size(), 1u);
   EXPECT_EQ(told[0].kind, WorkerPool::Correction::Kind::kSendModel);
   EXPECT_EQ(told[0].object_id, 1);
   EXPECT_EQ(told[0].worker_id, 0);
   EXPECT_FALSE(pool.progress(1));  // a non-owner's progress does not count
   // Worker 1 holds object 9, which does not exist (a merger restart): retire it.
-  told = pool.heartbeat(1, 9, 5, kT0 + 600ms, [](std::int32_t id) { return id == 1; });
+  told = pool.heartbeat(beat(1, 9, 5), kT0 + 600ms, [](std::int32_t id) { return id == 1; }).corrections;
   ASSERT_EQ(told.size(), 1u);
   EXPECT_EQ(told[0].kind, WorkerPool::Correction::Kind::kRetire);
   EXPECT_EQ(told[0].object_id, 9);
@@ -109,7 +115,7 @@ TEST(WorkerPool, AWorkerHoldingAnotherOwnersOrAMissingObjectIsTold) {
 
 TEST(WorkerPool, AReleasedObjectFreesItsWorker) {
   WorkerPool pool(WorkerPoolOptions{});
-  pool.heartbeat(0, -1, -1, kT0, always_exists);
+  pool.heartbeat(beat(0, -1, -1), kT0, always_exists);
   std::vector<std::int32_t> objects{1};
   pool.assign(objects, kT0);
   pool.release(1, kT0);
@@ -120,9 +126,52 @@ TEST(WorkerPool, AReleasedObjectFreesItsWorker) {
   EXPECT_EQ(assigned[0].worker_id, 0);
 }
 
+TEST(WorkerPool, TwoProcessesUnderOneWorkerIdClashAndTheNewerIsIgnored) {
+  WorkerPool pool(WorkerPoolOptions{1000ms, 200ms, 250ms});
+  pool.heartbeat(beat(4, -1, -1, 11, "host-a"), kT0, always_exists);
+  const std::vector<std::int32_t> objects{1};
+  pool.assign(objects, kT0);
+  // A second process on another host starts as worker 4: it waits ...
+  auto reply = pool.heartbeat(beat(4, -1, -1, 22, "host-b"), kT0 + 50ms, always_exists);
+  EXPECT_FALSE(reply.clash);
+  EXPECT_TRUE(reply.corrections.empty());
+  // ... and when the first heartbeats again, both are alive: a clash, said, never shared.
+  reply = pool.heartbeat(beat(4, 1, 3, 11, "host-a"), kT0 + 100ms, always_exists);
+  ASSERT_TRUE(reply.clash);
+  EXPECT_NE(reply.clash->find("host-b"), std::string::npos) << *reply.clash;
+  reply = pool.heartbeat(beat(4, -1, -1, 22, "host-b"), kT0 + 150ms, always_exists);
+  EXPECT_TRUE(reply.clash);
+  EXPECT_TRUE(reply.corrections.empty());  // the newcomer is not sent the object
+  EXPECT_EQ(pool.instance_of(4), 11);
+  EXPECT_TRUE(pool.owns(4, 1));
+  EXPECT_EQ(pool.workers().at(4).host, "host-a");
+  EXPECT_GE(pool.clashes(), 2);
+}
+
+TEST(WorkerPool, ARestartedWorkerTakesItsIdBackOnceTheOldProcessIsSilent) {
+  WorkerPool pool(WorkerPoolOptions{1000ms, 200ms, 250ms});
+  pool.heartbeat(beat(4, -1, -1, 11), kT0, always_exists);
+  const std::vector<std::int32_t> objects{1};
+  pool.assign(objects, kT0);
+  pool.heartbeat(beat(4, 1, 5, 11), kT0 + 100ms, always_exists);
+  // The process is restarted: the new one is heard 50 ms after the old one's last heartbeat ...
+  EXPECT_FALSE(pool.heartbeat(beat(4, -1, -1, 33), kT0 + 150ms, always_exists).clash);
+  EXPECT_EQ(pool.instance_of(4), 11);
+  // ... and takes the id over once the old one has been silent past the takeover silence; it
+  // keeps the object and is sent its model again (it holds nothing).
+  const auto reply = pool.heartbeat(beat(4, -1, -1, 33), kT0 + 400ms, always_exists);
+  EXPECT_FALSE(reply.clash);
+  EXPECT_EQ(pool.instance_of(4), 33);
+  EXPECT_TRUE(pool.owns(4, 1));
+  ASSERT_EQ(reply.corrections.size(), 1u);
+  EXPECT_EQ(reply.corrections[0].object_id, 1);
+  EXPECT_EQ(pool.clashes(), 0);
+}
+
 TEST(WorkerPool, OptionsOutOfRangeAreRefused) {
   EXPECT_THROW(WorkerPool(WorkerPoolOptions{50ms, 10ms}), std::invalid_argument);
   EXPECT_THROW(WorkerPool(WorkerPoolOptions{1000ms, 2000ms}), std::invalid_argument);
+  EXPECT_THROW(WorkerPool(WorkerPoolOptions{1000ms, 200ms, 0ms}), std::invalid_argument);
 }
 
 // ---- FrameAssembler ----------------------------------------------------------------------------
@@ -148,8 +197,8 @@ struct AssemblerTest : ::testing::Test {
   }
   // Workers 0 and 1 own objects 1 and 2.
   void SetUp() override {
-    pool.heartbeat(0, -1, -1, kT0, always_exists);
-    pool.heartbeat(1, -1, -1, kT0, always_exists);
+    pool.heartbeat(beat(0, -1, -1), kT0, always_exists);
+    pool.heartbeat(beat(1, -1, -1), kT0, always_exists);
     const std::vector<std::int32_t> objects{1, 2};
     pool.assign(objects, kT0);
   }
@@ -209,7 +258,7 @@ TEST_F(AssemblerTest, AWorkerThatLostTheSceneGetsItAgainAFewTimesAtMost) {
   frames.add_scene(scene_of(0), bytes, kT0);
   frames.add_estimate(0, 1, estimate_at(0.1f));
   // Worker 1 heartbeats 300 ms after the scene went out without having finished frame 0.
-  pool.heartbeat(1, 2, -1, kT0 + 300ms, always_exists);
+  pool.heartbeat(beat(1, 2, -1), kT0 + 300ms, always_exists);
   auto poll = frames.poll(kT0 + 300ms, pool);
   EXPECT_FALSE(poll.due);
   ASSERT_EQ(poll.resend_models.size(), 1u);
@@ -226,8 +275,8 @@ TEST_F(AssemblerTest, AWorkerThatLostTheSceneGetsItAgainAFewTimesAtMost) {
   int resends = 0;
   for (int i = 1; i <= 20; ++i) {
     const auto now = kT0 + i * 300ms;
-    pool.heartbeat(0, 1, -1, now, always_exists);
-    pool.heartbeat(1, 2, -1, now, always_exists);
+    pool.heartbeat(beat(0, 1, -1), now, always_exists);
+    pool.heartbeat(beat(1, 2, -1), now, always_exists);
     if (!patient.poll(now, pool).resend_models.empty()) ++resends;
   }
   EXPECT_EQ(resends, o.max_resends);
@@ -291,6 +340,8 @@ scene_cloud_t block_scene(std::int64_t seq, float x) {
 heartbeat_t heartbeat_of(std::int32_t worker, std::int32_t object, std::int64_t last_seq) {
   heartbeat_t msg{};
   msg.worker_id = worker;
+  msg.instance = 100 + worker;
+  msg.host = "host-a";
   msg.object_id = object;
   msg.last_frame_seq = last_seq;
   return msg;
@@ -334,6 +385,7 @@ TEST_F(MergerCoreTest, AFrameWithoutObjectsCreatesThemAndHandsThemToWorkers) {
   ASSERT_EQ(sink.models.size(), 1u);
   EXPECT_EQ(sink.models[0].object_id, 1);
   EXPECT_EQ(sink.models[0].worker_id, 0);
+  EXPECT_EQ(sink.models[0].worker_instance, 100);  // addressed to that worker's process
   EXPECT_EQ(sink.models[0].frame_seq, 0);
   EXPECT_TRUE(core.workers().owns(0, 1));
 

@@ -1,6 +1,7 @@
 #include "mfot/service/lcm_util.hpp"
 
 #include "mfot/frame_t.hpp"
+#include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/poses_t.hpp"
 #include "mfot/scene_cloud_t.hpp"
@@ -14,10 +15,13 @@
 #include <csignal>
 #include <cstdlib>
 
+#include <unistd.h>
+
 namespace mfot::service {
 
 std::string lcm_url(const std::string& configured) {
   if (!configured.empty()) return configured;
+  if (const char* env = std::getenv("MFOT_LCM_URL"); env != nullptr && *env != '\0') return env;
   if (const char* env = std::getenv("LCM_DEFAULT_URL"); env != nullptr && *env != '\0') return env;
   return kDefaultLcmUrl;
 }
@@ -26,6 +30,19 @@ std::int64_t now_utime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+std::string host_name() {
+  char name[256] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0 || name[0] == '\0') return "unknown";
+  return name;
+}
+
+std::int64_t process_instance() {
+  // Microseconds at start in the high bits, the process id in the low 20: two processes started on
+  // one host differ in the pid, on two hosts (almost surely) in the time.
+  static const std::int64_t instance = (now_utime() << 20) ^ static_cast<std::int64_t>(getpid() & 0xFFFFF);
+  return instance;
 }
 
 void MalformedCounter::record(const std::string& channel, const std::string& kind, const std::string& detail) {
@@ -98,10 +115,19 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
   return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 76, 23);
 }
 
-// hash 8 | utime, frame_seq 16 | object_id, worker_id, version 12 | position, orientation,
-// velocity 104 | num_points; per point x, y, z 12 + r, g, b 3.
+// hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,
+// orientation, velocity 104 | num_points; per point x, y, z 12 + r, g, b 3.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
-  return fixed_count_fits(rbuf, object_model_t::getHash(), 140, 15);
+  return fixed_count_fits(rbuf, object_model_t::getHash(), 148, 15);
+}
+
+// hash 8 | utime 8 | worker_id 4 | instance 8 | host (int32 length incl. NUL, bytes) | object_id,
+// last_frame_seq 12.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const heartbeat_t*) {
+  const WireLayout wire(rbuf, heartbeat_t::getHash());
+  std::int64_t host_length = 0;
+  if (!wire.ours() || !wire.int32_at(28, host_length)) return true;
+  return host_length >= 1 && wire.fits(32, host_length, 1);
 }
 
 // hash 8 | utime, frame_seq 16 | num_points; per point label 4.

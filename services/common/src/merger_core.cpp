@@ -86,15 +86,22 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
   if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
   const auto exists = [this](std::int32_t id) { return manager_.objects().count(id) > 0; };
   const std::int64_t seq = frames_.last_finished_seq();
-  for (const auto& correction : workers_.heartbeat(msg.worker_id, msg.object_id, msg.last_frame_seq, clock_(), exists)) {
+  const WorkerPool::Reply reply = workers_.heartbeat(
+      {msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, clock_(), exists);
+  if (reply.clash) sink_.note(*reply.clash);
+  for (const auto& correction : reply.corrections) {
     if (correction.kind == WorkerPool::Correction::Kind::kSendModel) {
-      sink_.send_model(manager_.objects().at(correction.object_id), correction.worker_id, seq);
+      send_model(correction.object_id, correction.worker_id, seq);
     } else {
       sink_.send_retirement(correction.object_id, seq);
       // After a restart of this merger: controllers knew that id as another object.
       manager_.reserve_ids_through(correction.object_id);
     }
   }
+}
+
+void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq) {
+  sink_.send_model(manager_.objects().at(object_id), worker_id, workers_.instance_of(worker_id), frame_seq);
 }
 
 int MergerCore::step() {
@@ -106,7 +113,7 @@ int MergerCore::step() {
     const FrameAssembler::Poll poll = frames_.poll(now, workers_);
     if (!poll.resend_models.empty()) {
       for (const auto& [object_id, worker_id] : poll.resend_models) {
-        sink_.send_model(manager_.objects().at(object_id), worker_id, frames_.last_finished_seq());
+        send_model(object_id, worker_id, frames_.last_finished_seq());
       }
       sink_.resend_scene(*poll.resend_scene);
     }
@@ -122,7 +129,7 @@ void MergerCore::assign_idle_workers(Clock::time_point now) {
   object_ids_.clear();
   for (const auto& [id, object] : manager_.objects()) object_ids_.push_back(id);
   for (const auto& [object_id, worker_id] : workers_.assign(object_ids_, now)) {
-    sink_.send_model(manager_.objects().at(object_id), worker_id, frames_.last_finished_seq());
+    send_model(object_id, worker_id, frames_.last_finished_seq());
   }
 }
 
@@ -141,7 +148,7 @@ void MergerCore::finish_frame(Clock::time_point now) {
   // Every owner gets its object's model of this frame (a new object's owner got it on assignment).
   for (const auto& [object_id, worker_id] : workers_.owners()) {
     if (std::find(result.created.begin(), result.created.end(), object_id) == result.created.end()) {
-      sink_.send_model(manager_.objects().at(object_id), worker_id, seq);
+      send_model(object_id, worker_id, seq);
     }
   }
   sink_.publish_frame({due.scene, result, manager_.objects(), due_at});

@@ -34,8 +34,9 @@ LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const Merger
   if (config.write_labels) lcm_.subscribe(channel::kFrame, &LcmMergerLink::on_frame, this);
 }
 
-void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) {
-  const object_model_t msg = model_message(object, worker_id, frame_seq, now_utime());
+void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                               std::int64_t frame_seq) {
+  const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, now_utime());
   lcm_.publish(channel::kModel, &msg);
 }
 

@@ -4,13 +4,14 @@
 
 namespace mfot::service {
 
-object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq,
-                             std::int64_t utime) {
+object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                             std::int64_t frame_seq, std::int64_t utime) {
   object_model_t msg{};
   msg.utime = utime;
   msg.frame_seq = frame_seq;
   msg.object_id = object.id;
   msg.worker_id = worker_id;
+  msg.worker_instance = worker_id >= 0 ? worker_instance : 0;
   msg.version = object.version;
   pose_to_arrays(object.pose, msg.position, msg.orientation);
   for (int i = 0; i < 6; ++i) msg.velocity[i] = object.velocity[i];

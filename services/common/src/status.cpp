@@ -21,7 +21,7 @@ float percentile(std::vector<double> values, double q) {
 }  // namespace
 
 StatusReporter::StatusReporter(lcm::LCM& lcm, std::string service, int instance, std::string backend)
-    : lcm_(lcm), service_(std::move(service)), instance_(instance), backend_(std::move(backend)) {}
+    : lcm_(lcm), service_(std::move(service)), instance_(instance), host_(host_name()), backend_(std::move(backend)) {}
 
 void StatusReporter::frame_done(double latency_ms) {
   ++frames_;
@@ -41,6 +41,7 @@ void StatusReporter::publish() {
   msg.utime = now_utime();
   msg.service = service_;
   msg.instance = instance_;
+  msg.host = host_;
   msg.backend = backend_;
   msg.rate_hz = static_cast<float>(static_cast<double>(frames_ - frames_at_last_report_) / elapsed);
   msg.latency_p50_ms = percentile(window, 0.5);

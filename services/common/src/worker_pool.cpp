@@ -13,30 +13,75 @@ void WorkerPoolOptions::validate() const {
     throw std::invalid_argument("worker_timeout must be in [100, 600000] ms, got " +
                                 std::to_string(worker_timeout.count()));
   }
+  if (takeover_silence < std::chrono::milliseconds(1) || takeover_silence > worker_timeout) {
+    throw std::invalid_argument("takeover_silence must be in [1, worker_timeout] ms, got " +
+                                std::to_string(takeover_silence.count()));
+  }
   if (model_in_flight < std::chrono::milliseconds(0) || model_in_flight > worker_timeout) {
     throw std::invalid_argument("model_in_flight must be in [0, worker_timeout] ms, got " +
                                 std::to_string(model_in_flight.count()));
   }
 }
 
+namespace {
+std::string clash_text(std::int32_t worker_id, const WorkerPool::Worker& w) {
+  return "worker id " + std::to_string(worker_id) + " claimed by two processes (on " + w.host + " and on " +
+         w.contender_host + "); the newer is ignored";
+}
+}  // namespace
+
 WorkerPool::WorkerPool(WorkerPoolOptions options) : options_(options) { options_.validate(); }
 
-std::vector<WorkerPool::Correction> WorkerPool::heartbeat(std::int32_t worker_id, std::int32_t held_object_id,
-                                                          std::int64_t last_frame_seq, Clock::time_point now,
-                                                          const std::function<bool(std::int32_t)>& object_exists) {
+WorkerPool::Reply WorkerPool::heartbeat(const Heartbeat& hb, Clock::time_point now,
+                                        const std::function<bool(std::int32_t)>& object_exists) {
+  Reply reply;
+  const std::int32_t worker_id = hb.worker_id;
+  const std::int32_t held_object_id = hb.held_object_id;
+  const std::int64_t last_frame_seq = hb.last_frame_seq;
   auto [it, inserted] = workers_.try_emplace(worker_id);
   Worker& w = it->second;
+  if (!inserted && w.alive && hb.instance != w.instance) {
+    if (now - w.last_seen <= options_.takeover_silence) {
+      // Another process under a live worker's id: a restart (the old one stays silent from now
+      // on) or a clash (the old one heartbeats again). Either way it waits.
+      if (w.contender != hb.instance) {
+        w.contender = hb.instance;
+        w.contender_host = hb.host;
+        w.contender_clashes = false;
+      }
+      w.contender_seen = now;
+      if (w.contender_clashes) {
+        ++clashes_;
+        reply.clash = clash_text(worker_id, w);
+      }
+      return reply;
+    }
+    spdlog::info("tracker worker {} restarted (a new process on {})", worker_id, hb.host);
+  } else if (!inserted && w.contender != 0 && hb.instance == w.instance &&
+             now - w.contender_seen <= options_.takeover_silence) {
+    // The holder heartbeats while another process claims its id: they clash. The holder keeps it.
+    if (!w.contender_clashes) {
+      w.contender_clashes = true;
+      spdlog::error("two processes heartbeat as tracker worker {} (on {} and on {}): the newer one is ignored; "
+                    "give it another --worker-id", worker_id, w.host, w.contender_host);
+    }
+    ++clashes_;
+    reply.clash = clash_text(worker_id, w);
+  }
+  if (hb.instance != w.instance) w.contender = 0;  // the newcomer took over (or the worker is new)
   if (inserted || !w.alive) {
-    spdlog::info("tracker worker {} is {}", worker_id, inserted ? "up" : "back");
+    spdlog::info("tracker worker {} is {} (on {})", worker_id, inserted ? "up" : "back", hb.host);
     w.object_id = -1;
   }
+  w.instance = hb.instance;
+  w.host = hb.host;
   w.alive = true;
   w.last_seen = now;
   w.last_frame_seq = last_frame_seq;
   if (w.object_id >= 0 && held_object_id == w.object_id) note_progress(w.object_id, last_frame_seq);
-  if (held_object_id == w.object_id || now - w.told_at <= options_.model_in_flight) return {};
+  if (held_object_id == w.object_id || now - w.told_at <= options_.model_in_flight) return reply;
   w.told_at = now;
-  std::vector<Correction> corrections;
+  std::vector<Correction>& corrections = reply.corrections;
   // The worker lost its model (or restarted): send it again.
   if (w.object_id >= 0) {
     spdlog::warn("worker {} does not hold object {}; sending its model again", worker_id, w.object_id);
@@ -55,7 +100,7 @@ std::vector<WorkerPool::Correction> WorkerPool::heartbeat(std::int32_t worker_id
       corrections.push_back({Correction::Kind::kRetire, held_object_id, -1});
     }
   }
-  return corrections;
+  return reply;
 }
 
 std::vector<std::int32_t> WorkerPool::expire(Clock::time_point now) {
@@ -126,6 +171,11 @@ std::optional<std::int64_t> WorkerPool::progress(std::int32_t object_id) const {
   const auto it = progress_.find(object_id);
   if (it == progress_.end()) return std::nullopt;
   return it->second;
+}
+
+std::int64_t WorkerPool::instance_of(std::int32_t worker_id) const {
+  const auto it = workers_.find(worker_id);
+  return it == workers_.end() ? 0 : it->second.instance;
 }
 
 int WorkerPool::alive_count() const {

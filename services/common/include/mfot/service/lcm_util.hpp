@@ -13,6 +13,7 @@
 
 namespace mfot {
 class frame_t;
+class heartbeat_t;
 class object_model_t;
 class poses_t;
 class scene_cloud_t;
@@ -43,8 +44,15 @@ inline constexpr int kMaxLockstepWindow = 8;
 // Host-local multicast: ttl=0 keeps traffic on this machine (LCM has no authentication).
 inline constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
-// `configured` if not empty, else $LCM_DEFAULT_URL, else kDefaultLcmUrl.
+// `configured` if not empty, else $MFOT_LCM_URL (the process group's), else $LCM_DEFAULT_URL, else
+// kDefaultLcmUrl.
 std::string lcm_url(const std::string& configured);
+
+// This machine's host name ("unknown" when it has none), for status and heartbeats.
+std::string host_name();
+// Identifies this process among all that ever heartbeat (start time and process id); the same for
+// every call.
+std::int64_t process_instance();
 
 std::int64_t now_utime();
 
@@ -70,6 +78,7 @@ class MalformedCounter {
 // (leaving it to decode) for a foreign fingerprint or a buffer too short to hold the count.
 // Types without arrays need none.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*);
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const heartbeat_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*);

@@ -52,8 +52,9 @@ class MergerSink {
   virtual ~MergerSink() = default;
 
   // The object's model and pose as of frame `frame_seq`, addressed to `worker_id` (its owner, or
-  // -1: nobody owns it now).
-  virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t frame_seq) = 0;
+  // -1: nobody owns it now) and that worker's process `worker_instance` (0 when unknown).
+  virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                          std::int64_t frame_seq) = 0;
   virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq) = 0;
   // A scene as received, for workers that lost it.
   virtual void resend_scene(std::span<const std::uint8_t> message) = 0;
@@ -87,6 +88,7 @@ class MergerCore {
 
  private:
   void assign_idle_workers(Clock::time_point now);
+  void send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq);
   void finish_frame(Clock::time_point due_at);
 
   ObjectManager manager_;

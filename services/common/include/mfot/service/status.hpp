@@ -33,6 +33,7 @@ class StatusReporter {
   lcm::LCM& lcm_;
   std::string service_;
   int instance_;
+  std::string host_;
   std::string backend_;
   std::string message_;
   MalformedCounter malformed_;
