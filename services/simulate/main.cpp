@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(mfot::sim::scenario_names()));
   app.add_option("--seed", options.scenario.seed, "scenario and sensor-noise seed");
   app.add_option("--frames", options.scenario.num_frames, "frames to render, 0 = the scenario's own length");
-  app.add_option("--num-objects", options.scenario.num_objects, "random scenario: objects [1, 8]");
+  app.add_option("--num-objects", options.scenario.num_objects, "random scenario: objects [1, 16]");
   app.add_option("--object-speed", options.scenario.speed, "random scenario: mean object speed, m/s (0, 0.2]");
   app.add_option("--occlusion", options.scenario.occlusion, "random scenario: share of time hands occlude [0, 1]");
   app.add_flag("--no-noise", no_noise, "exact geometry: no sensor noise or dropouts besides the range limits");

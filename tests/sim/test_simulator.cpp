@@ -225,6 +225,23 @@ TEST(Simulator, StackScenarioStacksAndUnstacks) {
   EXPECT_NEAR(end.z(), top_half, 1e-4f);  // back on the table
 }
 
+// The random scenario holds up to 16 objects (12 for the several-hosts benchmark), none touching.
+TEST(Simulator, ACrowdedRandomTableHoldsTwelveObjectsApart) {
+  SimulatorOptions o = options_for("random", 5);
+  o.scenario.num_objects = 12;
+  o.scenario.num_frames = 3;
+  const Simulator sim(o);
+  const Eigen::Isometry3f camera_to_world = sim.world_to_camera().isometry().inverse();
+  std::vector<Eigen::Vector3f> centres;
+  for (std::size_t b = 0; b < sim.bodies().size(); ++b) {
+    if (!sim.bodies()[b].is_hand) centres.push_back(camera_to_world * sim.poses(0)[b].pose.translation);
+  }
+  ASSERT_EQ(centres.size(), 12u);
+  for (std::size_t a = 0; a < centres.size(); ++a) {
+    for (std::size_t b = a + 1; b < centres.size(); ++b) EXPECT_GT((centres[a] - centres[b]).head<2>().norm(), 0.05f);
+  }
+}
+
 TEST(Simulator, InvalidOptionsThrow) {
   SimulatorOptions o;
   o.scenario.name = "juggle";
@@ -233,7 +250,7 @@ TEST(Simulator, InvalidOptionsThrow) {
   o.scenario.speed = 0.5f;
   EXPECT_THROW(o.validate(), std::invalid_argument);
   o = SimulatorOptions{};
-  o.scenario.num_objects = 9;
+  o.scenario.num_objects = 17;
   EXPECT_THROW(o.validate(), std::invalid_argument);
   o = SimulatorOptions{};
   o.sensor.color_sigma = -1.0f;

@@ -35,7 +35,7 @@ void ScenarioOptions::validate() const {
   require(std::find(names.begin(), names.end(), name) != names.end(), "ScenarioOptions.name",
           "one of stack, contact, rotate, static, random");
   require(num_frames >= 0 && num_frames <= 1000000, "ScenarioOptions.num_frames", "in [0, 1000000]");
-  require(num_objects >= 1 && num_objects <= 8, "ScenarioOptions.num_objects", "in [1, 8]");
+  require(num_objects >= 1 && num_objects <= 16, "ScenarioOptions.num_objects", "in [1, 16]");
   require(speed > 0.0f && speed <= 0.2f, "ScenarioOptions.speed", "in (0, 0.2] m/s");
   require(occlusion >= 0.0f && occlusion <= 1.0f, "ScenarioOptions.occlusion", "in [0, 1]");
 }

@@ -45,7 +45,7 @@ void CaptureSettings::validate() const {
     throw ConfigError("capture.scenario: '" + scenario + "' is not one of " + list);
   }
   if (sim_frames < 0 || sim_frames > 1000000) throw ConfigError("capture.sim_frames: out of range [0, 1000000]");
-  if (sim_objects < 1 || sim_objects > 8) throw ConfigError("capture.sim_objects: out of range [1, 8]");
+  if (sim_objects < 1 || sim_objects > 16) throw ConfigError("capture.sim_objects: out of range [1, 16]");
   if (source == "tum" && tum_folder.empty()) throw ConfigError("capture.folder: required for source tum (--folder)");
   if (!(std::isfinite(depth_scale) && depth_scale > 0.0)) throw ConfigError("capture.depth_scale: must be > 0");
   if (!(std::isfinite(max_time_difference_s) && max_time_difference_s > 0.0)) {
@@ -81,7 +81,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.seed = section.get<unsigned long>("seed", s.seed);
   s.sim_frames = section.get<int>("sim_frames", s.sim_frames, 0, 1000000);
   s.sim_noise = section.get<bool>("sim_noise", s.sim_noise);
-  s.sim_objects = section.get<int>("sim_objects", s.sim_objects, 1, 8);
+  s.sim_objects = section.get<int>("sim_objects", s.sim_objects, 1, 16);
 
   s.tum_folder = section.get<std::string>("folder", s.tum_folder);
   s.depth_scale = section.get<double>("depth_scale", s.depth_scale, 1e-3, 1e9);

@@ -31,7 +31,7 @@ struct ScenarioOptions {
   std::uint64_t seed = 1;  // sensor noise (all scenarios) and the random scenario's layout
   int num_frames = 0;      // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
   // The random scenario only:
-  int num_objects = 3;     // [1, 8]
+  int num_objects = 3;     // [1, 16]
   float speed = 0.1f;      // mean sliding speed of objects, m/s, (0, 0.2] (peak is 1.5x)
   float occlusion = 0.3f;  // [0, 1]: share of the time hands pass over the objects (0 = no hands)
 

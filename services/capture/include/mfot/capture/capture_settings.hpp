@@ -31,7 +31,7 @@ struct CaptureSettings {
   std::uint64_t seed = 1;
   int sim_frames = 0;                   // 0 = the scenario's own length
   bool sim_noise = true;                // Kinect-like sensor noise
-  int sim_objects = 3;                  // random scenario: objects on the table [1, 8]
+  int sim_objects = 3;                  // random scenario: objects on the table [1, 16]
   // tum
   std::string tum_folder;
   double depth_scale = 5000.0;          // depth PNG units per metre
