@@ -52,6 +52,30 @@ TEST(WorkerPool, ObjectsGoToTheIdleWorkerWithTheLowestId) {
   EXPECT_TRUE(pool.assign(objects, kT0).empty());  // nothing changes while they live
 }
 
+TEST(WorkerPool, ObjectsSpreadOverTheHostsOfTheGroup) {
+  WorkerPool pool(WorkerPoolOptions{});
+  for (std::int32_t id : {0, 1, 2}) pool.heartbeat(beat(id, -1, -1, 10 + id, "host-a"), kT0, always_exists);
+  for (std::int32_t id : {500, 501}) pool.heartbeat(beat(id, -1, -1, 10 + id, "host-b"), kT0, always_exists);
+  const std::vector<std::int32_t> objects{1, 2, 3, 4};
+  const auto assigned = pool.assign(objects, kT0);
+  ASSERT_EQ(assigned.size(), 4u);
+  std::map<std::string, int> per_host;
+  for (const auto& a : assigned) ++per_host[pool.workers().at(a.worker_id).host];
+  EXPECT_EQ(per_host["host-a"], 2);
+  EXPECT_EQ(per_host["host-b"], 2);
+  EXPECT_EQ(assigned[0].worker_id, 0);    // a tie: the lowest id
+  EXPECT_EQ(assigned[1].worker_id, 500);  // then the host holding none
+  // Host b is lost (host a's workers keep heartbeating): its two objects are freed; host a's one
+  // idle worker takes the first, the other waits for a worker.
+  const std::map<std::int32_t, std::int32_t> held{{0, 1}, {1, 3}, {2, -1}};  // as assigned above
+  for (const auto& [id, object] : held) pool.heartbeat(beat(id, object, -1, 10 + id, "host-a"), kT0 + 1000ms, always_exists);
+  EXPECT_EQ(pool.expire(kT0 + 1500ms), (std::vector<std::int32_t>{500, 501}));
+  const auto moved = pool.assign(objects, kT0 + 1500ms);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].worker_id, 2);
+  EXPECT_EQ(pool.owners().size(), 3u);
+}
+
 TEST(WorkerPool, ASilentWorkerIsDeclaredDeadAndItsObjectGoesToAnother) {
   WorkerPool pool(WorkerPoolOptions{1000ms, 200ms});
   pool.heartbeat(beat(0, -1, -1), kT0, always_exists);

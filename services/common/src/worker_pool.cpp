@@ -120,18 +120,29 @@ std::vector<std::int32_t> WorkerPool::expire(Clock::time_point now) {
 std::vector<WorkerPool::Assignment> WorkerPool::assign(std::span<const std::int32_t> object_ids,
                                                        Clock::time_point now) {
   std::vector<Assignment> assigned;
+  std::map<std::string, int> held_on_host;  // objects owned by each host's workers
+  for (const auto& [object_id, worker_id] : owners_) ++held_on_host[workers_.at(worker_id).host];
   for (const std::int32_t object_id : object_ids) {
     if (owners_.count(object_id)) continue;
+    // The idle worker on the host holding the fewest objects, the lowest id among them: objects
+    // spread over hosts (one host: the lowest idle id).
+    Worker* chosen = nullptr;
+    std::int32_t chosen_id = -1;
     for (auto& [worker_id, w] : workers_) {
       if (!w.alive || w.object_id >= 0) continue;
-      w.object_id = object_id;
-      w.told_at = now;
-      owners_[object_id] = worker_id;
-      progress_.erase(object_id);
-      spdlog::info("object {} assigned to worker {}", object_id, worker_id);
-      assigned.push_back({object_id, worker_id});
-      break;
+      if (chosen == nullptr || held_on_host[w.host] < held_on_host[chosen->host]) {
+        chosen = &w;
+        chosen_id = worker_id;
+      }
     }
+    if (chosen == nullptr) continue;
+    chosen->object_id = object_id;
+    chosen->told_at = now;
+    owners_[object_id] = chosen_id;
+    ++held_on_host[chosen->host];
+    progress_.erase(object_id);
+    spdlog::info("object {} assigned to worker {} on {}", object_id, chosen_id, chosen->host);
+    assigned.push_back({object_id, chosen_id});
   }
   return assigned;
 }

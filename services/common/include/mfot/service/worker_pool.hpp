@@ -11,7 +11,8 @@
 //      takes it over only once the old one has fallen silent (a restart); while both heartbeat,
 //      the ids clash: the newcomer is ignored and the clash reported, never silently shared;
 //   2. expire: workers silent for longer than the timeout are declared dead, their objects freed;
-//   3. assign: every object without a live owner goes to the idle worker with the lowest id;
+//   3. assign: every object without a live owner goes to an idle worker on the host that holds the
+//      fewest objects (the lowest id there), so objects spread over the hosts of the group;
 //   4. release: a retired object frees its worker.
 // The owner's progress (the last frame it finished, from its estimates and heartbeats) lets the
 // frame assembly stop waiting for an estimate that will never come.
