@@ -6,6 +6,8 @@
 #include "mfot/poses_t.hpp"
 #include "mfot/service/lcm_util.hpp"
 
+#include "encoded_message.hpp"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -18,14 +20,9 @@ namespace mfot::capture {
 namespace {
 
 namespace fs = std::filesystem;
-using Bytes = std::vector<std::uint8_t>;
+using service::testing::Bytes;
+using service::testing::encode;
 
-template <class T>
-Bytes encode(const T& message) {
-  Bytes bytes(static_cast<std::size_t>(message.getEncodedSize()));
-  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  return bytes;
-}
 
 frame_t small_frame(std::int64_t seq) {
   service::Frame frame;

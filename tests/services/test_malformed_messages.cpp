@@ -17,6 +17,8 @@
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
 
+#include "encoded_message.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,16 +31,11 @@
 namespace mfot::service {
 namespace {
 
-using Bytes = std::vector<std::uint8_t>;
+using testing::Bytes;
+using testing::encode;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-template <class T>
-Bytes encode(const T& message) {
-  Bytes bytes(static_cast<std::size_t>(message.getEncodedSize()));
-  EXPECT_EQ(message.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
-  return bytes;
-}
 
 // Overwrites the big-endian int32 at `offset` (LCM's wire order).
 void patch_int32(Bytes& bytes, std::size_t offset, std::int32_t value) {

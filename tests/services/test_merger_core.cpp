@@ -10,6 +10,8 @@
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
 
+#include "encoded_message.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -320,14 +322,9 @@ TEST_F(AssemblerTest, TheFirstFrameWaitsForTheExpectedWorkersUpToTheStartupTimeo
 
 // ---- MergerCore ---------------------------------------------------------------------------------
 
-using Bytes = std::vector<std::uint8_t>;
+using testing::Bytes;
+using testing::encode;
 
-template <class T>
-Bytes encode(const T& message) {
-  Bytes bytes(static_cast<std::size_t>(message.getEncodedSize()));
-  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  return bytes;
-}
 
 // A 12 x 12 x 2 block of 5 mm voxels around (x, 0, 0.9), one cluster.
 scene_cloud_t block_scene(std::int64_t seq, float x) {
