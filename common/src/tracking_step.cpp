@@ -36,9 +36,9 @@ void TrackingStepOptions::validate() const {
 TrackingStep::TrackingStep(const TrackingStepOptions& options)
     : options_(validated(options)), occlusion_(options.occlusion) {}
 
-TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
-                                       const ObjectModel& model, const Eigen::AlignedBox3f& model_box,
-                                       ParticleFilter& filter, Likelihood& likelihood) {
+TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectModel& model,
+                                       const Eigen::AlignedBox3f& model_box, ParticleFilter& filter,
+                                       Likelihood& likelihood) {
   TrackingStepResult result;
   const Pose last = filter.estimate();
   const bool tests_occlusion = options_.hold_occluded_share > 0.f || options_.exclude_occluders;
@@ -60,10 +60,11 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, std::span<cons
       return result;
     }
   }
-  select_hypothesis_data(scene, scene_features, model_box, last, options_.hypothesis, hypothesis_);
+  select_hypothesis_points(scene, model_box, last, options_.hypothesis, hypothesis_);
   if (options_.exclude_occluders && !result.hold_expired) {
     result.occluders_removed = occlusion_.remove_occluders(hypothesis_);
   }
+  hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
   result.estimate = filter.step(hypothesis_, likelihood);
   return result;

@@ -17,6 +17,14 @@
 #include <string>
 
 namespace mfot {
+
+LikelihoodBackend parse_likelihood_backend(std::string_view name) {
+  if (name == "auto") return LikelihoodBackend::kAuto;
+  if (name == "cuda") return LikelihoodBackend::kCuda;
+  if (name == "cpu") return LikelihoodBackend::kCpu;
+  if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
+  throw std::invalid_argument("likelihood backend '" + std::string(name) + "' is not one of auto|cuda|cpu|point-to-point");
+}
 namespace {
 
 void validate(const LikelihoodOptions& options) {

@@ -1,28 +1,23 @@
-// mfot-inprocess: the whole pipeline in one process with direct calls, no LCM: source ->
-// frame encoding (as on the wire) -> Preprocessor -> one ParticleFilter per object ->
-// ObjectManager, with the same config sections as the services. It measures the method without
-// the transport (compare its rate with scripts/mfot-run's) and serves integration tests.
+// mfot-inprocess: the whole pipeline in one process with direct calls, no LCM (InprocessPipeline:
+// wire encoding -> Preprocessor -> one ObjectTracker per object -> ObjectManager), with the same
+// config sections as the services. It measures the method without the transport (compare its
+// rate with scripts/mfot-run's) and serves integration tests and baselines.
 
 #include "mfot/capture/capture_settings.hpp"
-#include "mfot/capture/frame_source.hpp"
-#include "mfot/metrics.hpp"
-#include "mfot/tracking_step.hpp"
-#include "mfot/service/convert.hpp"
-#include "mfot/service/frame_codec.hpp"
+#include "mfot/percentile.hpp"
+#include "mfot/service/inprocess_pipeline.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/run_outputs.hpp"
 #include "mfot/service/service_main.hpp"
-#include "mfot/service/run_writer.hpp"
 #include "mfot/service/tum_dataset.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <fstream>
-#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -31,14 +26,6 @@ namespace mfot::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// One object's tracker, as a tracker worker runs it (services/tracker).
-struct ObjectTracker {
-  LikelihoodChoice likelihood;
-  std::unique_ptr<ParticleFilter> filter;
-  std::unique_ptr<TrackingStep> step;  // counts this object's holds
-  Eigen::AlignedBox3f model_box;
-};
 
 struct Options {
   std::string config_path = "configs/default.yaml";
@@ -57,26 +44,20 @@ int run(const Options& cli) {
   }
   if (cli.max_frames > 0) capture.max_frames = cli.max_frames;
   capture.validate();
-  const PreprocessorOptions preprocess_options = load_preprocess_config(root).preprocessor;
-  TrackerConfig tracker_config = load_tracker_config(root);
-  if (!cli.backend.empty()) {
-    tracker_config.likelihood.backend = cli.backend == "cuda"             ? LikelihoodBackend::kCuda
-                                        : cli.backend == "cpu"            ? LikelihoodBackend::kCpu
-                                        : cli.backend == "point-to-point" ? LikelihoodBackend::kPointToPoint
-                                                                          : LikelihoodBackend::kAuto;
-  }
-  const MergerConfig merger_config = load_merger_config(root);
+  TrackerConfig tracker = load_tracker_config(root);
+  if (!cli.backend.empty()) tracker.likelihood.backend = parse_likelihood_backend(cli.backend);
+  const MergerConfig merger = load_merger_config(root);
+  InprocessPipeline pipeline({capture.encoding, load_preprocess_config(root).preprocessor, tracker, merger.manager});
 
   auto source = capture::make_source(capture, [] { return stop_requested(); });
-  Preprocessor preprocessor(preprocess_options);
-  ObjectManager manager(merger_config.manager);
-  std::map<std::int32_t, ObjectTracker> trackers;
-  std::unique_ptr<RunWriter> writer;
+  MalformedCounter malformed;  // undecodable frames for label images (none: the frames are our own)
+  std::unique_ptr<RunOutputs> outputs;
   std::unique_ptr<GroundTruthWriter> truth_writer;
-  FittingDistanceEvaluator fitting;
   std::ofstream timing;  // per-frame time, compared with the baselines' (scripts/bench-baselines)
   if (!cli.out_dir.empty()) {
-    writer = std::make_unique<RunWriter>(cli.out_dir);
+    outputs = std::make_unique<RunOutputs>(cli.out_dir, false,
+                                           RunOutputsOptions{merger.write_labels, merger.fitting_distance, false},
+                                           malformed);
     truth_writer = std::make_unique<GroundTruthWriter>(cli.out_dir + "/groundtruth");
     timing.open(cli.out_dir + "/timing.csv");
     if (!timing) throw std::runtime_error(cli.out_dir + "/timing.csv: cannot create file");
@@ -85,10 +66,6 @@ int run(const Options& cli) {
 
   // Per-stage milliseconds of every frame, so the summary shows where a frame's time goes.
   std::vector<double> frame_ms, codec_ms, preprocess_ms, track_ms, merge_ms;
-  const auto ms_since = [](Clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-  };
-  Scene scene;
   std::int64_t seq = 0;
   const auto start = Clock::now();
   while (!stop_requested() && (capture.max_frames <= 0 || seq < capture.max_frames)) {
@@ -96,71 +73,18 @@ int run(const Options& cli) {
     if (!item) break;
     const auto t0 = Clock::now();
     const std::clock_t cpu0 = std::clock();  // process CPU time: the cost of a frame on a shared machine
-    // The frame as the services see it after the wire's (possibly lossy) encoding.
-    const Frame frame = decode_frame(encode_frame(item->frame, capture.encoding, seq, source->name(), now_utime()));
-    codec_ms.push_back(ms_since(t0));
-    const auto t_preprocess = Clock::now();
-    RgbdImageView view;
-    view.width = frame.width;
-    view.height = frame.height;
-    view.intrinsics = {frame.fx, frame.fy, frame.cx, frame.cy};
-    view.depth_mm = frame.depth_mm;
-    view.color = frame.color;
-    const SceneCloud& cloud = preprocessor.process(view);
-    scene.cloud.clear();
-    scene.cloud.positions = cloud.positions;
-    scene.cloud.colors = cloud.colors;
-    scene.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
-    scene.features = compute_smr(scene.cloud.colors);
-    preprocess_ms.push_back(ms_since(t_preprocess));
-
-    const auto t_track = Clock::now();
-    std::map<std::int32_t, ObjectEstimate> estimates;
-    for (auto& [id, tracker] : trackers) {
-      const ObjectModel& model = manager.objects().at(id).model;
-      const TrackingStepResult step = tracker.step->track(scene.cloud, scene.features, model, tracker.model_box,
-                                                          *tracker.filter, *tracker.likelihood.likelihood);
-      estimates[id] = {step.estimate, tracker.filter->confidence()};
-      spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
-                    "t [{:.3f} {:.3f} {:.3f}]",
-                    seq, id, model.cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
-                    step.hypothesis_points, step.occluders_removed, step.estimate.translation.x(),
-                    step.estimate.translation.y(), step.estimate.translation.z());
-    }
-    track_ms.push_back(ms_since(t_track));
-    const auto t_merge = Clock::now();
-    const ObjectManagerFrame& result = manager.process(scene.cloud, scene.cluster, estimates);
-    for (const std::int32_t id : result.retired) trackers.erase(id);
-    for (const auto& [id, object] : manager.objects()) {
-      auto [it, created] = trackers.try_emplace(id);
-      ObjectTracker& tracker = it->second;
-      if (created) {
-        tracker.likelihood = make_likelihood(tracker_config.likelihood);
-        ParticleFilterOptions options = tracker_config.filter;
-        options.seed = tracker_config.filter.seed + static_cast<std::uint64_t>(id);
-        tracker.filter = std::make_unique<ParticleFilter>(options);
-        tracker.filter->reset(object.pose);
-        tracker.step = std::make_unique<TrackingStep>(tracker_config.step);
-      }
-      tracker.model_box = model_bounding_box(object.model);
-      tracker.likelihood.likelihood->set_model(object.model);
-    }
-    merge_ms.push_back(ms_since(t_merge));
-    frame_ms.push_back(ms_since(t0));
-
+    const InprocessFrame& frame = pipeline.process(item->frame, seq, source->name());
+    frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    codec_ms.push_back(frame.times.codec_ms);
+    preprocess_ms.push_back(frame.times.preprocess_ms);
+    track_ms.push_back(frame.times.track_ms);
+    merge_ms.push_back(frame.times.merge_ms);
     const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
-    if (writer) {
-      if (merger_config.fitting_distance) fitting.set_scene(scene.cloud.positions);
-      for (const auto& [id, object] : manager.objects()) {
-        writer->write_pose(seq, frame.capture_utime, id, object.pose, object.confidence, object.stale);
-        if (merger_config.fitting_distance && !scene.cloud.empty()) {
-          writer->write_fitting(seq, id, fitting.evaluate(object.model.cloud.positions, object.pose).mean);
-        }
-      }
+    if (outputs) {
+      const auto& objects = pipeline.manager().objects();
+      outputs->write_poses(seq, frame.scene.capture_utime, objects);
+      outputs->write_frame(frame.scene, pipeline.result().labels, objects, frame.message);
       timing << seq << ',' << frame_ms.back() << ',' << cpu_ms << '\n';
-      writer->write_labels(seq, dense_labels(frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy,
-                                             frame.depth_mm, preprocess_options.voxel_size, scene.cloud.positions,
-                                             result.labels));
       if (item->truth) {
         GroundTruthFrame truth = *item->truth;
         truth.frame = seq;
@@ -170,17 +94,13 @@ int run(const Options& cli) {
     ++seq;
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  if (writer) writer->flush();
-  const auto pct = [](std::vector<double> values, double q) {
-    if (values.empty()) return 0.0;
-    std::sort(values.begin(), values.end());
-    return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1))];
-  };
+  if (outputs) outputs->finish();
   spdlog::info("{} frames in {:.2f} s: {:.1f} frames/s; per frame p50 {:.1f} ms, p99 {:.1f} ms; {} objects at the end",
-               seq, seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), pct(frame_ms, 0.5),
-               pct(frame_ms, 0.99), manager.objects().size());
+               seq, seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), percentile(frame_ms, 0.5),
+               percentile(frame_ms, 0.99), pipeline.manager().objects().size());
   spdlog::info("stage p50 (ms): wire codec {:.2f}, preprocess {:.2f}, trackers {:.2f}, merger {:.2f}",
-               pct(codec_ms, 0.5), pct(preprocess_ms, 0.5), pct(track_ms, 0.5), pct(merge_ms, 0.5));
+               percentile(codec_ms, 0.5), percentile(preprocess_ms, 0.5), percentile(track_ms, 0.5),
+               percentile(merge_ms, 0.5));
   return seq > 0 ? 0 : 1;
 }
 
@@ -201,7 +121,5 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("inprocess", 0);
   install_signal_handlers();
-  return run_service_main([&] {
-    return run(options);
-  });
+  return run_service_main([&] { return run(options); });
 }

@@ -83,10 +83,8 @@ class PreprocessService {
       status_.malformed().record(channel::kFrame, "undecodable frame", e.what());
       return;
     }
-    const RgbdImageView image{frame.width, frame.height, CameraIntrinsics{frame.fx, frame.fy, frame.cx, frame.cy},
-                              frame.depth_mm, frame.color};
     try {
-      preprocessor_.process(image);
+      preprocessor_.process(image_view(frame));
     } catch (const std::invalid_argument& e) {
       status_.malformed().record(channel::kFrame, "invalid frame", e.what());
       return;

@@ -2,6 +2,8 @@
 // Wall-clock timing shared by the benchmark binaries: steady-clock milliseconds and the summary
 // figures of a series of per-frame or per-call times.
 
+#include "mfot/percentile.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -16,12 +18,7 @@ inline double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-// The value at quantile q in [0, 1] (nearest rank), 0 for no values.
-inline double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5)];
-}
+using mfot::percentile;
 
 inline double median(std::vector<double> values) { return percentile(std::move(values), 0.5); }
 

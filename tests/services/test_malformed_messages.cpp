@@ -1,7 +1,7 @@
 // Every message type a service subscribes to, fed malformed bytes the way the services take them:
-// the merger's scenes, estimates and heartbeats through its own handlers (MergerCore), the others
-// through decode_message() and the conversion the subscriber applies (decode_frame,
-// model_from_message). Each malformed message must be
+// the merger's scenes, estimates and heartbeats through its own handlers (MergerCore), a tracker's
+// models through its own (TrackerWorker), frames and poses through decode_message() and the
+// conversion the subscriber applies (decode_frame). Each malformed message must be
 // rejected and counted once in the MalformedCounter, and valid messages must still pass after it.
 
 #include "mfot/frame_t.hpp"
@@ -14,6 +14,7 @@
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/merger_core.hpp"
+#include "mfot/service/tracker_worker.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
 
@@ -93,18 +94,22 @@ bool accept_scene(const Bytes& bytes, MalformedCounter& malformed) {
   return accepted;
 }
 
-// tracker on MFOT_MODEL.
+// tracker on MFOT_MODEL (the worker's own handler, TrackerWorker::on_model, on a fresh worker 0).
 bool accept_model(const Bytes& bytes, MalformedCounter& malformed) {
-  object_model_t message;
-  if (!decode(bytes, message, malformed, channel::kModel)) return false;
-  ObjectModel model;
-  Pose pose;
-  PoseVector velocity;
-  if (auto error = model_from_message(message, model, pose, velocity)) {
-    malformed.record(channel::kModel, "invalid model", *error);
-    return false;
-  }
-  return true;
+  TrackerConfig config;
+  config.likelihood.backend = LikelihoodBackend::kCpu;
+  struct NoOutput : TrackerSink {
+    void publish_estimate(const tracker_estimate_t&) override {}
+    void publish_heartbeat(const heartbeat_t&) override {}
+    void note(const std::string&) override {}
+  } sink;
+  testing::ManualClock clock;
+  TrackerWorker worker(config, {0, 0, "test"}, sink, malformed, clock.function());
+  const std::int64_t before = malformed.total();
+  Bytes copy = bytes;
+  const lcm::ReceiveBuffer buffer{copy.data(), static_cast<std::uint32_t>(copy.size()), 0};
+  worker.on_model(&buffer, channel::kModel);
+  return malformed.total() == before;
 }
 
 // merger on MFOT_ESTIMATE.
@@ -479,9 +484,13 @@ TEST(MalformedMessages, SceneArraysInconsistentWithClustersAreRejected) {
 TEST(MalformedMessages, EmptyArraysAreValid) {
   MalformedCounter malformed;
   EXPECT_TRUE(accept_scene(encode(make_scene(0)), malformed));
-  EXPECT_TRUE(accept_model(encode(make_model(0)), malformed));
+  object_model_t retirement = make_model(0);  // no points: how the merger retires an object
+  retirement.worker_id = -1;
+  EXPECT_TRUE(accept_model(encode(retirement), malformed));
   EXPECT_TRUE(accept_poses(encode(make_poses(0)), malformed));
   EXPECT_EQ(malformed.total(), 0);
+  // Assigned to a worker, a model without points is refused by it.
+  EXPECT_FALSE(accept_model(encode(make_model(0)), malformed));
 }
 
 // segmentation_t has no subscriber among the services, but its count is guarded as well.

@@ -25,6 +25,11 @@ void select_hypothesis_data(const ColoredCloud& scene, std::span<const SmrFeatur
                             const Eigen::AlignedBox3f& model_box, const Pose& last_estimate,
                             const HypothesisOptions& options, HypothesisData& out);
 
+// The same selection without features: positions and colours only, out.features left empty. A
+// tracker computes the SMR features (per point) of the points it keeps, not of the whole scene.
+void select_hypothesis_points(const ColoredCloud& scene, const Eigen::AlignedBox3f& model_box,
+                              const Pose& last_estimate, const HypothesisOptions& options, HypothesisData& out);
+
 // Convenience overload computing the model's bounding box.
 void select_hypothesis_data(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
                             const ObjectModel& model, const Pose& last_estimate,

@@ -8,6 +8,7 @@
 #include "mfot/likelihood.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
+#include "mfot/smr_feature.hpp"
 
 #include <cstddef>
 #include <span>
@@ -16,6 +17,8 @@ namespace mfot {
 
 struct TrackingStepOptions {
   HypothesisOptions hypothesis;
+  // Colour feature of the scored points (the models' features must use the same options).
+  SmrOptions smr;
   // Cone, depth margin and own-surface radius of the occlusion tests below.
   OcclusionOptions occlusion;
   // A frame in which at least this share of the model, at the last estimate, is occluded by
@@ -48,7 +51,9 @@ struct TrackingStepResult {
 //  2. select the hypothesis data around the last estimate (3.3);
 //  3. when exclude_occluders (and the hold has not expired): remove the points in front of the
 //     model at the last estimate;
-//  4. step the filter with the likelihood on what is left.
+//  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
+//     never scored by this object;
+//  5. step the filter with the likelihood on what is left.
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
 // buffers, reused across frames.
@@ -60,11 +65,10 @@ class TrackingStep {
 
   const TrackingStepOptions& options() const { return options_; }
 
-  // scene_features must match the scene in length; model_box is model_bounding_box(model), kept by
-  // the caller since the model changes less often than the scene.
-  TrackingStepResult track(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
-                           const ObjectModel& model, const Eigen::AlignedBox3f& model_box, ParticleFilter& filter,
-                           Likelihood& likelihood);
+  // model_box is model_bounding_box(model), kept by the caller since the model changes less often
+  // than the scene.
+  TrackingStepResult track(const ColoredCloud& scene, const ObjectModel& model, const Eigen::AlignedBox3f& model_box,
+                           ParticleFilter& filter, Likelihood& likelihood);
 
   const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
   // Forgets the holds in a row (a new object, or its filter reset).

@@ -34,8 +34,12 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
                          static_cast<std::uint8_t>(msg.b[i])});
     out.cluster[i] = msg.cluster[i];
   }
-  out.features.clear();
   return std::nullopt;
+}
+
+RgbdImageView image_view(const Frame& frame) {
+  return {frame.width, frame.height, CameraIntrinsics{frame.fx, frame.fy, frame.cx, frame.cy}, frame.depth_mm,
+          frame.color};
 }
 
 void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out) {

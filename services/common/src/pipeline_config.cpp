@@ -54,20 +54,10 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   return config;
 }
 
-namespace {
-LikelihoodBackend parse_backend(const std::string& name) {
-  if (name == "cuda") return LikelihoodBackend::kCuda;
-  if (name == "cpu") return LikelihoodBackend::kCpu;
-  if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
-  return LikelihoodBackend::kAuto;
-}
-
-}  // namespace
-
 TrackerConfig load_tracker_config(const YAML::Node& root) {
   TrackerConfig c;
   auto s = config_section(root, "tracker");
-  c.likelihood.backend = parse_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
+  c.likelihood.backend = parse_likelihood_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
   c.likelihood.cpu_threads = s.get<int>("threads", 1, 1, 256);
   c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 0, 64);
   c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.015f, 0.001f, 0.2f);

@@ -1,5 +1,7 @@
 #include "mfot/service/status.hpp"
 
+#include "mfot/percentile.hpp"
+
 #include "mfot/service_status_t.hpp"
 
 #include <spdlog/spdlog.h>
@@ -12,12 +14,6 @@ namespace mfot::service {
 namespace {
 constexpr std::size_t kLatencyWindow = 300;
 
-float percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.f;
-  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1) + 0.5);
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return static_cast<float>(values[k]);
-}
 }  // namespace
 
 StatusReporter::StatusReporter(lcm::LCM& lcm, std::string service, int instance, std::string backend)
@@ -44,8 +40,8 @@ void StatusReporter::publish() {
   msg.host = host_;
   msg.backend = backend_;
   msg.rate_hz = static_cast<float>(static_cast<double>(frames_ - frames_at_last_report_) / elapsed);
-  msg.latency_p50_ms = percentile(window, 0.5);
-  msg.latency_p99_ms = percentile(window, 0.99);
+  msg.latency_p50_ms = static_cast<float>(percentile(window, 0.5));
+  msg.latency_p99_ms = static_cast<float>(percentile(window, 0.99));
   msg.queue_depth = queue_depth_;
   msg.frames = frames_;
   msg.malformed = malformed_.total();

@@ -7,10 +7,15 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
 
 namespace mfot {
 
 enum class LikelihoodBackend { kAuto, kCuda, kCpu, kPointToPoint };
+
+// "auto" | "cuda" | "cpu" | "point-to-point" (tracker.backend, --backend); anything else throws
+// std::invalid_argument naming the name and the choices.
+LikelihoodBackend parse_likelihood_backend(std::string_view name);
 
 struct LikelihoodOptions {
   LikelihoodBackend backend = LikelihoodBackend::kAuto;

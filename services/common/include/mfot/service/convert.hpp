@@ -7,6 +7,7 @@
 #include "mfot/likelihood.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/preprocessing.hpp"
+#include "mfot/service/frame_codec.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/types.hpp"
 
@@ -22,11 +23,13 @@ struct Scene {
   float voxel_size = 0.f;                // preprocess voxel leaf, metres
   ColoredCloud cloud;                    // camera frame
   std::vector<std::int32_t> cluster;     // per point, -1 = none
-  std::vector<SmrFeature> features;      // per point (filled by whoever needs them)
 };
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.
 std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& out);
+// The preprocessor's view of a decoded frame (it must outlive the view).
+RgbdImageView image_view(const Frame& frame);
+
 // The preprocessed scene of `source` (its seq, capture time, size and intrinsics) into `out`,
 // reusing its buffers; utime is left to the publisher.
 void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out);

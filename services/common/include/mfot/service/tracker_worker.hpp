@@ -1,0 +1,83 @@
+#pragma once
+// A tracker worker's protocol, transport-free: it takes the messages a worker subscribes to
+// (MFOT_MODEL, MFOT_SCENE) as received bytes, validates them, and tracks the object the merger
+// assigned to it (ObjectTracker). Steps:
+//   1. on_model: a model addressed to this worker id *and* this process (worker_instance) is taken
+//      (a new object starts a new filter; the grid is rebuilt only for a new version); any other
+//      model says the merger finished its frame, and takes away the object it names if this
+//      worker held it (moved to another worker, or retired);
+//   2. on_scene: scenes queue in frame order (TrackerSceneQueue) until this worker holds its
+//      object's model of the frame before;
+//   3. step: tracks every released scene and publishes each estimate; heartbeats every
+//      tracker.heartbeat_ms, and at once when a scene was skipped (the merger then stops waiting).
+// What goes out is said to a TrackerSink (the LCM main publishes it; tests record it); the clock
+// is passed in.
+
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/object_tracker.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/tracker_scene_queue.hpp"
+#include "mfot/tracker_estimate_t.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace mfot::service {
+
+class TrackerSink {
+ public:
+  TrackerSink() = default;
+  TrackerSink(const TrackerSink&) = delete;
+  TrackerSink& operator=(const TrackerSink&) = delete;
+  virtual ~TrackerSink() = default;
+  virtual void publish_estimate(const tracker_estimate_t& estimate) = 0;
+  virtual void publish_heartbeat(const heartbeat_t& heartbeat) = 0;
+  // Something a person watching the status should know.
+  virtual void note(const std::string& message) = 0;
+};
+
+struct TrackerIdentity {
+  std::int32_t worker_id = 0;
+  std::int64_t instance = 0;  // this process (process_instance())
+  std::string host;
+};
+
+class TrackerWorker {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  TrackerWorker(const TrackerConfig& config, TrackerIdentity identity, TrackerSink& sink, MalformedCounter& malformed,
+                std::function<Clock::time_point()> clock);
+  TrackerWorker(const TrackerWorker&) = delete;
+  TrackerWorker& operator=(const TrackerWorker&) = delete;
+
+  void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // Step 3; returns the frames tracked.
+  int step();
+
+  const ObjectTracker& tracker() const { return tracker_; }
+  std::size_t queued_scenes() const { return scenes_.size(); }
+
+ private:
+  void track(const Scene& scene);
+  void heartbeat(Clock::time_point now);
+  void report_fallbacks();
+
+  TrackerConfig config_;
+  TrackerIdentity identity_;
+  TrackerSink& sink_;
+  MalformedCounter& malformed_;
+  std::function<Clock::time_point()> clock_;
+  ObjectTracker tracker_;
+  TrackerSceneQueue scenes_;
+  Clock::time_point next_heartbeat_{};
+  std::int64_t skipped_at_heartbeat_ = 0;
+  std::int64_t reported_fallbacks_ = 0;
+  std::int64_t reported_gaps_ = 0;
+};
+
+}  // namespace mfot::service

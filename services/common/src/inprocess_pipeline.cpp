@@ -1,0 +1,64 @@
+#include "mfot/service/inprocess_pipeline.hpp"
+
+#include "mfot/service/lcm_util.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+namespace mfot::service {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+}  // namespace
+
+InprocessPipeline::InprocessPipeline(const InprocessOptions& options)
+    : options_(options), preprocessor_(options.preprocess), manager_(options.manager) {}
+
+const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_t seq, const std::string& source_name) {
+  const auto t0 = Clock::now();
+  frame_.message = encode_frame(frame, options_.encoding, seq, source_name, now_utime());
+  const Frame decoded = decode_frame(frame_.message);  // what the services see after the wire
+  frame_.times.codec_ms = ms_since(t0);
+
+  const auto t_preprocess = Clock::now();
+  const SceneCloud& cloud = preprocessor_.process(image_view(decoded));
+  Scene& scene = frame_.scene;
+  scene.frame_seq = seq;
+  scene.capture_utime = decoded.capture_utime;
+  scene.voxel_size = options_.preprocess.voxel_size;
+  scene.cloud.clear();
+  scene.cloud.positions = cloud.positions;
+  scene.cloud.colors = cloud.colors;
+  scene.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+  frame_.times.preprocess_ms = ms_since(t_preprocess);
+
+  const auto t_track = Clock::now();
+  std::map<std::int32_t, ObjectEstimate> estimates;
+  for (auto& [id, tracker] : trackers_) {
+    const TrackingStepResult step = tracker->track(scene.cloud);
+    estimates[id] = {step.estimate, tracker->filter().confidence()};
+    spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
+                  "t [{:.3f} {:.3f} {:.3f}]",
+                  seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
+                  step.hypothesis_points, step.occluders_removed, step.estimate.translation.x(),
+                  step.estimate.translation.y(), step.estimate.translation.z());
+  }
+  frame_.times.track_ms = ms_since(t_track);
+
+  const auto t_merge = Clock::now();
+  const ObjectManagerFrame& result = manager_.process(scene.cloud, scene.cluster, estimates);
+  for (const std::int32_t id : result.retired) trackers_.erase(id);
+  const ObjectTrackerOptions tracker_options{options_.tracker.likelihood, options_.tracker.filter,
+                                             options_.tracker.step};
+  for (const auto& [id, object] : manager_.objects()) {
+    auto& tracker = trackers_[id];
+    if (!tracker) tracker = std::make_unique<ObjectTracker>(tracker_options);
+    tracker->set_model(id, object.version, object.model, object.pose);
+  }
+  frame_.times.merge_ms = ms_since(t_merge);
+  return frame_;
+}
+
+}  // namespace mfot::service

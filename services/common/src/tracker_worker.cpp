@@ -1,0 +1,150 @@
+#include "mfot/service/tracker_worker.hpp"
+
+#include "mfot/object_model_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/convert.hpp"
+
+#include <spdlog/spdlog.h>
+
+namespace mfot::service {
+
+TrackerWorker::TrackerWorker(const TrackerConfig& config, TrackerIdentity identity, TrackerSink& sink,
+                             MalformedCounter& malformed, std::function<Clock::time_point()> clock)
+    : config_(config),
+      identity_(std::move(identity)),
+      sink_(sink),
+      malformed_(malformed),
+      clock_(std::move(clock)),
+      tracker_(ObjectTrackerOptions{config.likelihood, config.filter, config.step}),
+      scenes_(config.scenes) {}
+
+void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  object_model_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  if (msg.frame_seq < -1) {
+    malformed_.record(channel_name, "invalid model", "frame_seq below -1");
+    return;
+  }
+  // Addressed to another worker, or to this worker id in another process (two processes given
+  // one id): not ours, but the merger finished its frame.
+  if (msg.worker_id != identity_.worker_id || msg.worker_instance != identity_.instance) {
+    scenes_.frame_finished(msg.frame_seq);
+    if (tracker_.has_object() && tracker_.object_id() == msg.object_id) {
+      spdlog::info("object {} {}", msg.object_id, msg.worker_id < 0 ? "retired" : "moved to another worker");
+      tracker_.drop();
+      scenes_.object_dropped();
+    }
+    return;
+  }
+  ObjectModel model;
+  Pose pose;
+  PoseVector velocity;  // the filter learns its own velocity within two frames
+  if (auto error = model_from_message(msg, model, pose, velocity)) {
+    malformed_.record(channel_name, "invalid model", *error);
+    return;
+  }
+  if (model.cloud.empty()) {
+    malformed_.record(channel_name, "invalid model", "empty model assigned");
+    return;
+  }
+  // A model older than (or the same as) the one held arrived late or again: keep ours.
+  if (!scenes_.accepts_model(msg.object_id, msg.frame_seq)) return;
+  const std::size_t points = model.cloud.size();
+  try {
+    if (tracker_.set_model(msg.object_id, msg.version, model, pose)) {
+      spdlog::info("took object {} (model v{} of frame {}, {} points)", msg.object_id, msg.version, msg.frame_seq,
+                   points);
+    }
+  } catch (const std::exception& e) {
+    // A model the likelihood cannot take is refused like any invalid model; the worker goes on.
+    malformed_.record(channel_name, "invalid model", e.what());
+    return;
+  }
+  // Scenes the merger had already finished when it sent this model are not ours to track.
+  scenes_.model_received(msg.object_id, msg.frame_seq);
+}
+
+void TrackerWorker::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  scene_cloud_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  Scene scene;
+  if (auto error = scene_from_message(msg, scene)) {
+    malformed_.record(channel_name, "invalid scene", *error);
+    return;
+  }
+  // Frames are tracked in sequence order only: a late (reordered) scene, or one the merger sends
+  // again after this worker already has it, is refused.
+  const std::int64_t skipped = scenes_.skipped();
+  if (scenes_.add_scene(std::move(scene)) == TrackerSceneQueue::Arrival::kNewSequence) {
+    spdlog::info("scene seq {}: a new frame sequence", msg.frame_seq);
+  }
+  if (scenes_.skipped() != skipped) {
+    sink_.note("skipped " + std::to_string(scenes_.skipped()) + " scenes (more than tracker.queue_scenes)");
+  }
+}
+
+int TrackerWorker::step() {
+  // An idle worker keeps its scenes too: if the merger assigns it an object while those frames
+  // are still open, it tracks them at once instead of the merger waiting for it.
+  int tracked = 0;
+  while (auto scene = scenes_.next(clock_())) {
+    if (!tracker_.has_object()) continue;
+    track(*scene);
+    ++tracked;
+  }
+  report_fallbacks();
+  const auto now = clock_();
+  // A skipped scene is said at once, so the merger does not wait for its estimate.
+  if (now >= next_heartbeat_ || scenes_.skipped() != skipped_at_heartbeat_) heartbeat(now);
+  return tracked;
+}
+
+void TrackerWorker::track(const Scene& scene) {
+  const auto t0 = clock_();
+  const TrackingStepResult result = tracker_.track(scene.cloud);
+  spdlog::debug("frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out", scene.frame_seq,
+                tracker_.object_id(), result.held ? "held" : "stepped", result.occluded_share,
+                result.hypothesis_points, result.occluders_removed);
+  tracker_estimate_t msg{};
+  msg.utime = now_utime();
+  msg.frame_seq = scene.frame_seq;
+  msg.object_id = tracker_.object_id();
+  msg.worker_id = identity_.worker_id;
+  msg.model_version = tracker_.model_version();
+  pose_to_arrays(result.estimate, msg.position, msg.orientation);
+  msg.confidence = tracker_.filter().confidence();
+  msg.effective_sample_size = tracker_.filter().effective_sample_size();
+  msg.num_particles = config_.filter.num_particles;
+  msg.num_hypothesis_points = static_cast<std::int32_t>(result.hypothesis_points);
+  msg.compute_ms = static_cast<float>(std::chrono::duration<double, std::milli>(clock_() - t0).count());
+  sink_.publish_estimate(msg);
+}
+
+void TrackerWorker::heartbeat(Clock::time_point now) {
+  heartbeat_t hb{};
+  hb.utime = now_utime();
+  hb.worker_id = identity_.worker_id;
+  hb.instance = identity_.instance;
+  hb.host = identity_.host;
+  hb.object_id = tracker_.has_object() ? tracker_.object_id() : -1;
+  hb.last_frame_seq = scenes_.last_done();
+  skipped_at_heartbeat_ = scenes_.skipped();
+  sink_.publish_heartbeat(hb);
+  next_heartbeat_ = now + std::chrono::milliseconds(config_.heartbeat_ms);
+}
+
+void TrackerWorker::report_fallbacks() {
+  if (scenes_.gaps_passed() != reported_gaps_) {
+    reported_gaps_ = scenes_.gaps_passed();
+    spdlog::warn("tracked a scene ahead of a missing one ({} times so far)", reported_gaps_);
+    sink_.note("tracked " + std::to_string(reported_gaps_) + " scenes ahead of a missing one");
+  }
+  if (scenes_.fallbacks() == reported_fallbacks_) return;
+  reported_fallbacks_ = scenes_.fallbacks();
+  spdlog::warn("tracked a scene without the previous frame's model after {} ms ({} times so far)",
+               config_.scenes.model_wait.count(), reported_fallbacks_);
+  sink_.note("tracked " + std::to_string(reported_fallbacks_) +
+             " scenes without the previous frame's model (tracker.model_wait_ms)");
+}
+
+}  // namespace mfot::service

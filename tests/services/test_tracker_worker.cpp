@@ -1,0 +1,217 @@
+// One object's tracker (ObjectTracker) and a tracker worker's protocol (TrackerWorker) without LCM:
+// the same estimates as driving the filter and the step by hand, a grid only for a new model
+// version, and the worker's handlers fed encoded messages.
+
+#include "../core/synthetic_object.hpp"
+#include "encoded_message.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/object_model_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/object_tracker.hpp"
+#include "mfot/service/tracker_worker.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <vector>
+
+namespace mfot::service {
+namespace {
+
+using testing::Bytes;
+using testing::encode;
+
+ObjectTrackerOptions cpu_options() {
+  ObjectTrackerOptions o;
+  o.likelihood.backend = LikelihoodBackend::kCpu;
+  o.filter.num_particles = 50;
+  o.filter.seed = 11;
+  o.step.exclude_occluders = true;
+  o.step.hold_occluded_share = 0.6f;
+  return o;
+}
+
+const ObjectModel kModel = test::make_model(test::make_test_object(0.f));
+const Pose kStart = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f::UnitY(), 0.2f);
+
+// The object moved a little in frame k.
+ColoredCloud scene_at(int k) {
+  Pose pose = kStart;
+  pose.translation.x() += 0.003f * static_cast<float>(k);
+  return test::transformed(test::make_test_object(0.3f), pose);
+}
+
+TEST(ObjectTracker, EstimatesAreThoseOfTheFilterAndStepDrivenByHand) {
+  const ObjectTrackerOptions options = cpu_options();
+  ObjectTracker tracker(options);
+  EXPECT_TRUE(tracker.set_model(3, 1, kModel, kStart));
+  ParticleFilterOptions filter_options = options.filter;
+  filter_options.seed += 3;  // the object's id
+  ParticleFilter filter(filter_options);
+  filter.reset(kStart);
+  TrackingStep step(options.step);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(kModel);
+  for (int k = 1; k <= 4; ++k) {
+    const ColoredCloud scene = scene_at(k);
+    const TrackingStepResult got = tracker.track(scene);
+    const TrackingStepResult expected = step.track(scene, kModel, model_bounding_box(kModel), filter, likelihood);
+    EXPECT_EQ(got.estimate.translation, expected.estimate.translation) << k;
+    EXPECT_EQ(got.estimate.rotation.coeffs(), expected.estimate.rotation.coeffs()) << k;
+    EXPECT_EQ(got.hypothesis_points, expected.hypothesis_points) << k;
+  }
+}
+
+TEST(ObjectTracker, BuildsAGridOnlyForANewObjectOrModelVersion) {
+  ObjectTracker tracker(cpu_options());
+  EXPECT_FALSE(tracker.has_object());
+  EXPECT_THROW(tracker.track(scene_at(0)), std::logic_error);
+  EXPECT_TRUE(tracker.set_model(3, 1, kModel, kStart));
+  EXPECT_EQ(tracker.grid_builds(), 1);
+  for (int k = 0; k < 3; ++k) EXPECT_FALSE(tracker.set_model(3, 1, kModel, kStart));  // every frame, same version
+  EXPECT_EQ(tracker.grid_builds(), 1);
+  ObjectModel grown = kModel;
+  grown.cloud.push_back(Eigen::Vector3f(0.f, 0.f, 0.06f), Rgb8{1, 2, 3});
+  grown.features = compute_smr(grown.cloud.colors);
+  EXPECT_FALSE(tracker.set_model(3, 2, grown, kStart));
+  EXPECT_EQ(tracker.grid_builds(), 2);
+  EXPECT_EQ(tracker.model().cloud.size(), grown.cloud.size());
+  EXPECT_EQ(tracker.model_version(), 2);
+  tracker.drop();
+  EXPECT_FALSE(tracker.has_object());
+  EXPECT_TRUE(tracker.set_model(3, 2, grown, kStart));  // taken again: a new filter
+  EXPECT_EQ(tracker.grid_builds(), 3);
+}
+
+TEST(ObjectTracker, ANewObjectStartsAsAFreshTrackerWould) {
+  ObjectTracker reused(cpu_options());
+  reused.set_model(3, 1, kModel, kStart);
+  reused.track(scene_at(1));
+  reused.track(scene_at(2));
+  ObjectTracker fresh(cpu_options());
+  EXPECT_TRUE(reused.set_model(5, 1, kModel, kStart));
+  fresh.set_model(5, 1, kModel, kStart);
+  for (int k = 1; k <= 3; ++k) {
+    EXPECT_EQ(reused.track(scene_at(k)).estimate.translation, fresh.track(scene_at(k)).estimate.translation) << k;
+  }
+}
+
+// ---- TrackerWorker ------------------------------------------------------------------------------
+
+class RecordingTrackerSink : public TrackerSink {
+ public:
+  void publish_estimate(const tracker_estimate_t& estimate) override { estimates.push_back(estimate); }
+  void publish_heartbeat(const heartbeat_t& heartbeat) override { heartbeats.push_back(heartbeat); }
+  void note(const std::string& message) override { notes.push_back(message); }
+  std::vector<tracker_estimate_t> estimates;
+  std::vector<heartbeat_t> heartbeats;
+  std::vector<std::string> notes;
+};
+
+object_model_t model_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance, std::int64_t frame_seq) {
+  object_model_t msg{};
+  msg.frame_seq = frame_seq;
+  msg.object_id = object_id;
+  msg.worker_id = worker_id;
+  msg.worker_instance = instance;
+  msg.version = 1;
+  pose_to_arrays(kStart, msg.position, msg.orientation);
+  model_to_message(kModel, msg);
+  return msg;
+}
+
+scene_cloud_t scene_message(std::int64_t seq) {
+  const ColoredCloud cloud = scene_at(static_cast<int>(seq));
+  scene_cloud_t msg{};
+  msg.frame_seq = seq;
+  msg.width = 640;
+  msg.height = 480;
+  msg.fx = msg.fy = 525.f;
+  msg.voxel_size = 0.005f;
+  msg.num_clusters = 1;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    msg.x.push_back(cloud.positions[i].x());
+    msg.y.push_back(cloud.positions[i].y());
+    msg.z.push_back(cloud.positions[i].z());
+    msg.r.push_back(cloud.colors[i].r);
+    msg.g.push_back(cloud.colors[i].g);
+    msg.b.push_back(cloud.colors[i].b);
+    msg.u.push_back(0);
+    msg.v.push_back(0);
+    msg.cluster.push_back(0);
+  }
+  msg.num_points = static_cast<std::int32_t>(msg.x.size());
+  return msg;
+}
+
+struct TrackerWorkerTest : ::testing::Test {
+  static TrackerConfig config() {
+    TrackerConfig c;
+    const ObjectTrackerOptions o = cpu_options();
+    c.likelihood = o.likelihood;
+    c.filter = o.filter;
+    c.step = o.step;
+    return c;
+  }
+  template <class T>
+  void deliver(void (TrackerWorker::*handler)(const lcm::ReceiveBuffer*, const std::string&), const T& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (worker.*handler)(&buffer, "TEST");
+  }
+  RecordingTrackerSink sink;
+  MalformedCounter malformed;
+  std::chrono::steady_clock::time_point now{std::chrono::seconds(100)};
+  TrackerWorker worker{config(), {4, 444, "host-a"}, sink, malformed, [this] { return now; }};
+};
+
+TEST_F(TrackerWorkerTest, TracksTheObjectAddressedToThisProcessAndHeartbeatsIt) {
+  worker.step();
+  ASSERT_EQ(sink.heartbeats.size(), 1u);  // at once: the merger learns the worker
+  EXPECT_EQ(sink.heartbeats[0].object_id, -1);
+  EXPECT_EQ(sink.heartbeats[0].instance, 444);
+  EXPECT_EQ(sink.heartbeats[0].host, "host-a");
+  // Worker id 4 in another process (a clash): not ours.
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 555, 0));
+  EXPECT_FALSE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  ASSERT_TRUE(worker.tracker().has_object());
+  EXPECT_EQ(worker.tracker().object_id(), 7);
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  EXPECT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 1u);
+  EXPECT_EQ(sink.estimates[0].frame_seq, 1);
+  EXPECT_EQ(sink.estimates[0].object_id, 7);
+  EXPECT_EQ(sink.estimates[0].worker_id, 4);
+  EXPECT_GT(sink.estimates[0].num_hypothesis_points, 0);
+  now += std::chrono::milliseconds(150);
+  worker.step();
+  EXPECT_EQ(sink.heartbeats.back().object_id, 7);
+  EXPECT_EQ(sink.heartbeats.back().last_frame_seq, 1);
+  // The object moves to another worker: dropped.
+  deliver(&TrackerWorker::on_model, model_for(7, 9, 999, 1));
+  EXPECT_FALSE(worker.tracker().has_object());
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) {
+  Bytes truncated = encode(model_for(7, 4, 444, 0));
+  truncated.resize(truncated.size() - 3);
+  const lcm::ReceiveBuffer half{truncated.data(), static_cast<std::uint32_t>(truncated.size()), 0};
+  worker.on_model(&half, "MFOT_MODEL");
+  object_model_t empty = model_for(7, 4, 444, 0);
+  empty.num_points = 0;
+  empty.x.clear(), empty.y.clear(), empty.z.clear(), empty.r.clear(), empty.g.clear(), empty.b.clear();
+  deliver(&TrackerWorker::on_model, empty);
+  scene_cloud_t bad_scene = scene_message(1);
+  bad_scene.cluster[0] = 5;  // beyond num_clusters
+  deliver(&TrackerWorker::on_scene, bad_scene);
+  EXPECT_EQ(malformed.total(), 3);
+  EXPECT_FALSE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  EXPECT_EQ(worker.step(), 1);
+}
+
+}  // namespace
+}  // namespace mfot::service
