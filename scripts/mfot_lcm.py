@@ -324,6 +324,15 @@ def default_types_dirs() -> List[Path]:
     return [repo / "build" / "lcmtypes" / "python"]
 
 
+def percentile(values: Iterable[float], q: float) -> float:
+    """The project's one percentile (as common/include/mfot/percentile.hpp): the value at rank
+    round(q (n - 1)) of the sorted values, q in [0, 1]; 0.0 for no values."""
+    s = sorted(values)
+    if not s:
+        return 0.0
+    return s[int(q * (len(s) - 1) + 0.5)]
+
+
 def load_types(types_dir: Optional[str] = None):
     """Imports the lcm-gen -p package `mfot` from `types_dir`, $MFOT_LCM_PY_DIR or the default
     build directory, and returns the module."""

@@ -33,6 +33,7 @@ struct Options {
   std::int64_t max_frames = 0;
   std::string backend;
   std::string out_dir;
+  std::string json_path;
 };
 
 int run(const Options& cli) {
@@ -101,6 +102,17 @@ int run(const Options& cli) {
   spdlog::info("stage p50 (ms): wire codec {:.2f}, preprocess {:.2f}, trackers {:.2f}, merger {:.2f}",
                percentile(codec_ms, 0.5), percentile(preprocess_ms, 0.5), percentile(track_ms, 0.5),
                percentile(merge_ms, 0.5));
+  if (!cli.json_path.empty()) {
+    std::ofstream json(cli.json_path);
+    json << fmt::format(
+        "{{\"frames\": {}, \"seconds\": {:.4f}, \"fps\": {:.3f}, \"frame_ms_p50\": {:.3f}, \"frame_ms_p99\": {:.3f}, "
+        "\"objects\": {}, \"stage_ms_p50\": {{\"codec\": {:.3f}, \"preprocess\": {:.3f}, \"trackers\": {:.3f}, "
+        "\"merger\": {:.3f}}}}}\n",
+        seq, seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), percentile(frame_ms, 0.5),
+        percentile(frame_ms, 0.99), pipeline.manager().objects().size(), percentile(codec_ms, 0.5),
+        percentile(preprocess_ms, 0.5), percentile(track_ms, 0.5), percentile(merge_ms, 0.5));
+    if (!json) throw std::runtime_error(cli.json_path + ": cannot write the summary");
+  }
   return seq > 0 ? 0 : 1;
 }
 
@@ -118,6 +130,7 @@ int main(int argc, char** argv) {
   app.add_option("--backend", options.backend, "likelihood backend")
       ->check(CLI::IsMember({"auto", "cuda", "cpu", "point-to-point"}));
   app.add_option("--out", options.out_dir, "write poses.csv, labels/, fitting.csv, timing.csv and groundtruth/ here");
+  app.add_option("--json", options.json_path, "write the summary (frames, frames/s, per-frame and per-stage ms) as JSON");
   CLI11_PARSE(app, argc, argv);
   setup_logging("inprocess", 0);
   install_signal_handlers();

@@ -243,5 +243,16 @@ class PoseClientTest(unittest.TestCase):
             self.assertIn("undecodable", err)
 
 
+
+class PercentileTest(unittest.TestCase):
+    def test_rank_of_the_cxx_percentile(self):
+        # common/include/mfot/percentile.hpp: rank round(q (n - 1)) of the sorted values.
+        self.assertEqual(mfot_lcm.percentile([5, 1, 3, 2, 4], 0.5), 3)
+        self.assertEqual(mfot_lcm.percentile(range(101), 0.99), 99)
+        self.assertEqual(mfot_lcm.percentile([2.0, 1.0], 0.0), 1.0)
+        self.assertEqual(mfot_lcm.percentile([2.0, 1.0], 1.0), 2.0)
+        self.assertEqual(mfot_lcm.percentile([], 0.9), 0.0)
+
+
 if __name__ == "__main__":
     unittest.main()
