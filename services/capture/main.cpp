@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   using namespace mfot::service;
   CLI::App app{"mfot-capture: publish RGB-D frames (frame_t) on MFOT_FRAME from the simulator, a TUM folder, "
                "an .oni recording or an OpenNI2 camera"};
-  std::string config_path = "configs/default.yaml";
+  std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   CaptureSettings cli;
   std::string rate, depth_encoding, color_encoding;

@@ -60,7 +60,7 @@ int run_merger(lcm::LCM& lcm, const MergerConfig& config, const std::optional<st
 int main(int argc, char** argv) {
   using namespace mfot::service;
   CLI::App app{"mfot-merger: segmentation, model update and object management"};
-  std::string config_path = "configs/default.yaml";
+  std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   std::string output_dir;
   bool append_output = false;

@@ -52,7 +52,8 @@ struct BaselineConfig {
   unsigned seed = 1;
 };
 
-// Section pcl_baseline of the baseline's own config file (strict like the services' configs).
+// Section pcl_baseline of the baseline's own config file laid over configs/default.yaml (strict like
+// the services' configs).
 BaselineConfig load_baseline_config(const std::string& path) {
   YAML::Node root;
   try {
@@ -67,30 +68,29 @@ BaselineConfig load_baseline_config(const std::string& path) {
   } catch (const ConfigError& e) {
     throw ConfigError(path + ": " + e.what());
   }
+  root = merged_over_defaults(root);
   BaselineConfig c;
   PclTrackerSettings& t = c.tracker;
   auto s = config_section(root, "pcl_baseline");
-  t.particles = s.get<int>("particles", t.particles, 1, 100000);
-  t.max_particles = s.get<int>("max_particles", t.max_particles, 1, 100000);
-  t.kld_delta = s.get<double>("kld_delta", t.kld_delta, 1e-6, 1.0 - 1e-6);
-  t.kld_epsilon = s.get<double>("kld_epsilon", t.kld_epsilon, 1e-6, 10.0);
-  t.bin_size = s.get<double>("bin_size", t.bin_size, 1e-6, 10.0);
+  t.particles = s.get<int>("particles", 1, 100000);
+  t.max_particles = s.get<int>("max_particles", 1, 100000);
+  t.kld_delta = s.get<double>("kld_delta", 1e-6, 1.0 - 1e-6);
+  t.kld_epsilon = s.get<double>("kld_epsilon", 1e-6, 10.0);
+  t.bin_size = s.get<double>("bin_size", 1e-6, 10.0);
   const auto to_array = [](const std::vector<double>& v) {
     std::array<double, 6> a{};
     std::copy(v.begin(), v.end(), a.begin());
     return a;
   };
-  const auto& step = t.step_noise_sigma;
-  t.step_noise_sigma = to_array(s.get_vector("step_noise_sigma", {step.begin(), step.end()}, 6));
-  const auto& init = t.initial_noise_sigma;
-  t.initial_noise_sigma = to_array(s.get_vector("initial_noise_sigma", {init.begin(), init.end()}, 6));
-  t.iterations = s.get<int>("iterations", t.iterations, 1, 100);
-  t.color_weight = s.get<double>("color_weight", t.color_weight, 0.0, 100.0);
-  t.max_distance = s.get<double>("max_distance", t.max_distance, 1e-6, 1.0);
-  t.octree_resolution = s.get<double>("octree_resolution", t.octree_resolution, 1e-4, 1.0);
-  t.reference_leaf = s.get<float>("reference_leaf", t.reference_leaf, 0.f, 0.1f);
-  t.threads = s.get<int>("threads", t.threads, 1, 256);
-  c.seed = static_cast<unsigned>(s.get<std::uint64_t>("seed", c.seed, 0, 4294967295u));  // srand takes 32 bits
+  t.step_noise_sigma = to_array(s.get_vector("step_noise_sigma", 6));
+  t.initial_noise_sigma = to_array(s.get_vector("initial_noise_sigma", 6));
+  t.iterations = s.get<int>("iterations", 1, 100);
+  t.color_weight = s.get<double>("color_weight", 0.0, 100.0);
+  t.max_distance = s.get<double>("max_distance", 1e-6, 1.0);
+  t.octree_resolution = s.get<double>("octree_resolution", 1e-4, 1.0);
+  t.reference_leaf = s.get<float>("reference_leaf", 0.f, 0.1f);
+  t.threads = s.get<int>("threads", 1, 256);
+  c.seed = static_cast<unsigned>(s.get<std::uint64_t>("seed", 0, 4294967295u));  // srand takes 32 bits
   s.finish();
   try {
     t.validate();  // cross-field rule: max_particles >= particles
@@ -134,7 +134,7 @@ struct BaselineObject {
 };
 
 struct Options {
-  std::string config_path = "configs/default.yaml";
+  std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string baseline_config_path = "configs/pcl_baseline.yaml";
   std::string scenario;
   std::int64_t max_frames = 0;

@@ -112,7 +112,7 @@ class PreprocessService {
 int main(int argc, char** argv) {
   using namespace mfot::service;
   CLI::App app{"mfot-preprocess: RGB-D frames -> table-free, voxelised, clustered scene clouds"};
-  std::string config_path = "configs/default.yaml";
+  std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   app.add_option("--config", config_path, "YAML config (section `preprocess`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");

@@ -78,7 +78,7 @@ int run_tracker(lcm::LCM& lcm, const TrackerConfig& config, int worker_id) {
 int main(int argc, char** argv) {
   using namespace mfot::service;
   CLI::App app{"mfot-tracker: one particle-filter tracker worker"};
-  std::string config_path = "configs/default.yaml";
+  std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   int worker_id = 0;
   app.add_option("--config", config_path, "YAML config (section `tracker`)");

@@ -35,22 +35,22 @@ void read_or_config_error(Read&& read) {
 }
 
 void read_every_way(ConfigSection& s) {
-  read_or_config_error([&] { s.get<int>("particles", 100, 1, 100000); });
-  read_or_config_error([&] { s.get<int>("heartbeat_ms", 100); });
-  read_or_config_error([&] { s.get<long>("max_frames", 0L, 0L, 1000000L); });
-  read_or_config_error([&] { s.get<unsigned long>("seed", 1UL); });
-  read_or_config_error([&] { s.get<float>("lambda", 80.0f, 0.0f, 1000.0f); });
-  read_or_config_error([&] { s.get<float>("cell_size", 0.015f); });
-  read_or_config_error([&] { s.get<double>("tau", 0.01, 0.0, 1.0); });
-  read_or_config_error([&] { s.get<double>("fps", 30.0); });
-  read_or_config_error([&] { s.get<bool>("write_labels", true); });
-  read_or_config_error([&] { s.get<std::string>("backend", "auto"); });
-  read_or_config_error([&] { s.choice("resampling", "systematic", {"multinomial", "systematic"}); });
-  read_or_config_error([&] { s.get_vector("init_sigma", std::vector<double>(6, 0.0), 6); });
+  read_or_config_error([&] { s.get<int>("particles", 1, 100000); });
+  read_or_config_error([&] { s.get<int>("heartbeat_ms"); });
+  read_or_config_error([&] { s.get<long>("max_frames", 0L, 1000000L); });
+  read_or_config_error([&] { s.get<unsigned long>("seed"); });
+  read_or_config_error([&] { s.get<float>("lambda", 0.0f, 1000.0f); });
+  read_or_config_error([&] { s.get<float>("cell_size"); });
+  read_or_config_error([&] { s.get<double>("tau", 0.0, 1.0); });
+  read_or_config_error([&] { s.get<double>("fps"); });
+  read_or_config_error([&] { s.get<bool>("write_labels"); });
+  read_or_config_error([&] { s.get<std::string>("backend"); });
+  read_or_config_error([&] { s.choice("resampling", {"multinomial", "systematic"}); });
+  read_or_config_error([&] { s.get_vector("init_sigma", 6); });
   read_or_config_error([&] {
     ConfigSection world = s.section("world");
-    read_or_config_error([&] { world.get_vector("translation", {0.0, 0.0, 0.0}, 3); });
-    read_or_config_error([&] { world.get_vector("rotation", {1.0, 0.0, 0.0, 0.0}, 4); });
+    read_or_config_error([&] { world.get_vector("translation", 3); });
+    read_or_config_error([&] { world.get_vector("rotation", 4); });
     world.finish();
   });
   read_or_config_error([&] { (void)s.has("unread"); });

@@ -254,9 +254,9 @@ TEST(LockstepGate, KeepsAtMostTheWindowInFlightAndTimesTheOldest) {
 }
 
 TEST(CaptureSettings, ReadsTheConfigSectionStrictly) {
-  const YAML::Node root = YAML::Load(
+  const YAML::Node root = service::merged_over_defaults(YAML::Load(
       "capture:\n  source: tum\n  folder: /data/fr1\n  rate: lockstep\n  lockstep_timeout_s: 1.5\n"
-      "  depth_encoding: raw\n  color_encoding: png\n  scenario: rotate\n  seed: 7\n  max_frames: 10\n");
+      "  depth_encoding: raw\n  color_encoding: png\n  scenario: rotate\n  seed: 7\n  max_frames: 10\n"));
   const CaptureSettings settings = load_capture_settings(service::config_section(root, "capture"));
   EXPECT_EQ(settings.source, "tum");
   EXPECT_EQ(settings.tum_folder, "/data/fr1");
@@ -270,7 +270,7 @@ TEST(CaptureSettings, ReadsTheConfigSectionStrictly) {
   EXPECT_NO_THROW(settings.validate());
 
   const auto load = [](const std::string& text) {
-    return load_capture_settings(service::config_section(YAML::Load(text), "capture"));
+    return load_capture_settings(service::config_section(service::merged_over_defaults(YAML::Load(text)), "capture"));
   };
   EXPECT_THROW(load("capture:\n  sorce: sim\n"), service::ConfigError);
   EXPECT_THROW(load("capture:\n  scenario: juggling\n"), service::ConfigError);

@@ -3,6 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <string>
+#include <vector>
+
 namespace mfot::service {
 namespace {
 
@@ -10,18 +14,26 @@ ConfigSection section_of(const std::string& yaml, const std::string& name) {
   return config_section(YAML::Load(yaml), name);
 }
 
-TEST(Config, ReadsValuesAndDefaults) {
+// A config text laid over the built-in defaults, as load_config_file does.
+YAML::Node with_defaults(const std::string& yaml) { return merged_over_defaults(YAML::Load(yaml)); }
+
+TEST(Config, ReadsValuesAndRefusesAMissingKey) {
   auto s = section_of("tracker:\n  particles: 200\n  alpha: 0.05\n  backend: cpu\n", "tracker");
-  EXPECT_EQ(s.get<int>("particles", 100, 1, 100000), 200);
-  EXPECT_DOUBLE_EQ(s.get<double>("alpha", 0.02, 0.0, 1.0), 0.05);
-  EXPECT_EQ(s.choice("backend", "auto", {"auto", "cuda", "cpu"}), "cpu");
-  EXPECT_EQ(s.get<int>("threads", 3), 3);
+  EXPECT_EQ(s.get<int>("particles", 1, 100000), 200);
+  EXPECT_DOUBLE_EQ(s.get<double>("alpha", 0.0, 1.0), 0.05);
+  EXPECT_EQ(s.choice("backend", {"auto", "cuda", "cpu"}), "cpu");
+  try {
+    s.get<int>("threads");
+    FAIL() << "a missing key was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("tracker.threads: missing"), std::string::npos) << e.what();
+  }
   EXPECT_NO_THROW(s.finish());
 }
 
 TEST(Config, UnknownKeyIsRefusedWithItsName) {
   auto s = section_of("tracker:\n  particles: 200\n  partciles: 100\n", "tracker");
-  s.get<int>("particles", 100);
+  s.get<int>("particles");
   try {
     s.finish();
     FAIL() << "unknown key accepted";
@@ -33,7 +45,7 @@ TEST(Config, UnknownKeyIsRefusedWithItsName) {
 TEST(Config, OutOfRangeNamesKeyAndRange) {
   auto s = section_of("merger:\n  alpha: 1.5\n", "merger");
   try {
-    s.get<double>("alpha", 0.02, 0.0, 1.0);
+    s.get<double>("alpha", 0.0, 1.0);
     FAIL() << "alpha > 1 accepted";
   } catch (const ConfigError& e) {
     const std::string what = e.what();
@@ -41,13 +53,13 @@ TEST(Config, OutOfRangeNamesKeyAndRange) {
     EXPECT_NE(what.find("[0.0"), std::string::npos) << what;
   }
   auto zero = section_of("tracker:\n  particles: 0\n", "tracker");
-  EXPECT_THROW(zero.get<int>("particles", 100, 1, 100000), ConfigError);
+  EXPECT_THROW(zero.get<int>("particles", 1, 100000), ConfigError);
 }
 
 TEST(Config, WrongTypeIsRefused) {
   auto s = section_of("tracker:\n  particles: many\n", "tracker");
   try {
-    s.get<int>("particles", 100);
+    s.get<int>("particles");
     FAIL() << "string accepted as integer";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("expected an integer"), std::string::npos) << e.what();
@@ -57,7 +69,7 @@ TEST(Config, WrongTypeIsRefused) {
 TEST(Config, BadChoiceListsAllowedValues) {
   auto s = section_of("tracker:\n  backend: opencl\n", "tracker");
   try {
-    s.choice("backend", "auto", {"auto", "cuda", "cpu"});
+    s.choice("backend", {"auto", "cuda", "cpu"});
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("auto|cuda|cpu"), std::string::npos) << e.what();
@@ -68,16 +80,16 @@ TEST(Config, NestedSectionsAndVectors) {
   auto root = YAML::Load("merger:\n  world:\n    translation: [0, 0, 1]\n    bogus: 1\n");
   auto merger = config_section(root, "merger");
   auto world = merger.section("world");
-  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
+  const auto t = world.get_vector("translation", 3);
   EXPECT_DOUBLE_EQ(t[2], 1.0);
-  EXPECT_THROW(world.get_vector("translation", {}, 4), ConfigError);
+  EXPECT_THROW(world.get_vector("translation", 4), ConfigError);
   EXPECT_THROW(world.finish(), ConfigError);
   EXPECT_THROW(check_top_level(root, {"capture"}), ConfigError);
   EXPECT_NO_THROW(check_top_level(root, {"merger"}));
 }
 
 TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
-  const TrackerConfig c = load_tracker_config(YAML::Load(
+  const TrackerConfig c = load_tracker_config(with_defaults(
       "tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"
       "  occluder_depth_margin: 0.02\n  own_surface_radius: 0.005\n  occlusion_window: 0.01\n"));
   EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.04f);
@@ -86,17 +98,17 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   EXPECT_FLOAT_EQ(c.step.occlusion.depth_margin, 0.02f);
   EXPECT_FLOAT_EQ(c.step.occlusion.own_surface_radius, 0.005f);
   EXPECT_FLOAT_EQ(c.step.occlusion.window, 0.01f);
-  // Absent keys: the thesis's step (every point scored, never held).
-  const TrackerConfig thesis = load_tracker_config(YAML::Load("tracker:\n  particles: 50\n"));
-  EXPECT_FALSE(thesis.step.exclude_occluders);
-  EXPECT_EQ(thesis.step.hold_occluded_share, 0.f);
+  // Absent keys: the shipped step (configs/default.yaml), not the option struct's thesis values.
+  const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
+  EXPECT_TRUE(shipped.step.exclude_occluders);
+  EXPECT_FLOAT_EQ(shipped.step.hold_occluded_share, 0.6f);
   try {
-    load_tracker_config(YAML::Load("tracker:\n  occlusion_window: 0.5\n"));
+    load_tracker_config(with_defaults("tracker:\n  occlusion_window: 0.5\n"));
     FAIL() << "occlusion_window 0.5 was accepted";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("occlusion_window"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
 }
 
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
@@ -110,7 +122,7 @@ namespace mfot::service {
 namespace {
 
 TEST(PipelineConfig, QueuesThreadsAndModelWaitAreReadAndRangeChecked) {
-  const YAML::Node root = YAML::Load(
+  const YAML::Node root = with_defaults(
       "preprocess:\n  threads: 3\n  queue_frames: 2\n"
       "tracker:\n  queue_scenes: 4\n  model_wait_ms: 250\n");
   const PreprocessConfig preprocess = load_preprocess_config(root);
@@ -120,16 +132,83 @@ TEST(PipelineConfig, QueuesThreadsAndModelWaitAreReadAndRangeChecked) {
   EXPECT_EQ(tracker.scenes.max_scenes, 4u);
   EXPECT_EQ(tracker.scenes.model_wait.count(), 250);
 
-  const PreprocessConfig automatic = load_preprocess_config(YAML::Load("preprocess: {}\n"));
+  const PreprocessConfig automatic = load_preprocess_config(with_defaults("preprocess: {}\n"));
   EXPECT_GE(automatic.preprocessor.threads, 1) << "0 (the default) picks a count from the machine";
   EXPECT_LE(automatic.preprocessor.threads, 8);
-  EXPECT_EQ(automatic.queue_frames, 8);
+  EXPECT_EQ(automatic.queue_frames, 1);  // the shipped default: the newest frame
 
-  EXPECT_THROW(load_preprocess_config(YAML::Load("preprocess:\n  threads: 65\n")), ConfigError);
-  EXPECT_THROW(load_preprocess_config(YAML::Load("preprocess:\n  queue_frames: 0\n")), ConfigError);
-  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  queue_scenes: 0\n")), ConfigError);
-  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  queue_scenes: 65\n")), ConfigError);
-  EXPECT_THROW(load_tracker_config(YAML::Load("tracker:\n  model_wait_ms: 0\n")), ConfigError);
+  EXPECT_THROW(load_preprocess_config(with_defaults("preprocess:\n  threads: 65\n")), ConfigError);
+  EXPECT_THROW(load_preprocess_config(with_defaults("preprocess:\n  queue_frames: 0\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  queue_scenes: 0\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  queue_scenes: 65\n")), ConfigError);
+  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  model_wait_ms: 0\n")), ConfigError);
+}
+
+// Every key of the built-in defaults is read by a loader: without it, loading fails naming it.
+TEST(DefaultConfig, EveryKeyReachesALoader) {
+  const auto load_all = [](const YAML::Node& root) {
+    load_preprocess_config(root);
+    load_tracker_config(root);
+    load_merger_config(root);
+  };
+  const YAML::Node defaults = default_config();
+  ASSERT_NO_THROW(load_all(defaults));
+  int keys = 0;
+  for (const char* section : {"preprocess", "tracker", "merger"}) {
+    std::vector<std::vector<std::string>> paths;  // leaf keys, nested mappings (merger.world) included
+    for (const auto& item : defaults[section]) {
+      const std::string key = item.first.Scalar();
+      if (item.second.IsMap()) {
+        for (const auto& inner : item.second) paths.push_back({key, inner.first.Scalar()});
+      } else {
+        paths.push_back({key});
+      }
+    }
+    for (const auto& path : paths) {
+      YAML::Node without = YAML::Clone(defaults);
+      if (path.size() == 1) {
+        without[section].remove(path[0]);
+      } else {
+        without[section][path[0]].remove(path[1]);
+      }
+      const std::string name = std::string(section) + "." + path.front() + (path.size() == 2 ? "." + path[1] : "");
+      try {
+        load_all(without);
+        ADD_FAILURE() << name << " is in configs/default.yaml but no loader reads it";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find(name + ": missing"), std::string::npos) << e.what();
+      }
+      ++keys;
+    }
+  }
+  EXPECT_GT(keys, 60);
+}
+
+// A config that leaves keys out runs the shipped configuration, not the option structs' thesis
+// values: an empty file loads exactly as configs/default.yaml itself.
+TEST(DefaultConfig, AnEmptyConfigIsTheShippedOne) {
+  const std::string empty = ::testing::TempDir() + "mfot_empty_config.yaml";
+  { std::ofstream(empty) << "# nothing\n"; }
+  const YAML::Node from_empty = load_config_file(empty);
+  const YAML::Node shipped = load_config_file(std::string(MFOT_SOURCE_DIR) + "/configs/default.yaml");
+  EXPECT_EQ(YAML::Dump(from_empty), YAML::Dump(shipped));
+  const TrackerConfig tracker = load_tracker_config(from_empty);
+  const MergerConfig merger = load_merger_config(from_empty);
+  const PreprocessConfig preprocess = load_preprocess_config(from_empty);
+  // The values that differ from the thesis's option structs.
+  EXPECT_TRUE(tracker.step.exclude_occluders);
+  EXPECT_FLOAT_EQ(tracker.step.hold_occluded_share, 0.6f);
+  EXPECT_EQ(tracker.filter.num_particles, 100);
+  EXPECT_FLOAT_EQ(merger.manager.model_update.alpha, 0.0f);
+  EXPECT_FLOAT_EQ(merger.manager.hidden_occluded_share, 0.6f);
+  EXPECT_EQ(preprocess.queue_frames, 1);
+  EXPECT_EQ(load_config_file("").size(), from_empty.size());  // no file at all: the same
+  // A key of one's own changes that key only.
+  const std::string one = ::testing::TempDir() + "mfot_one_key.yaml";
+  { std::ofstream(one) << "tracker:\n  particles: 250\n"; }
+  const YAML::Node changed = load_config_file(one);
+  EXPECT_EQ(load_tracker_config(changed).filter.num_particles, 250);
+  EXPECT_TRUE(load_tracker_config(changed).step.exclude_occluders);
 }
 
 }  // namespace

@@ -23,6 +23,8 @@
 
 namespace mfot {
 
+// Member defaults: the thesis's values, for library users and unit tests; the services and
+// mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
 struct ObjectManagerOptions {
   SegmentationOptions segmentation;     // tau (3.23)
   ModelUpdateOptions model_update;      // alpha (3.4); seed is the base, each object adds its id

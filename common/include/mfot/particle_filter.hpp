@@ -19,6 +19,8 @@ enum class ResamplingScheme {
 // Defaults other than num_particles and predicted_fraction come from the synthetic tracking test
 // (tests/core/test_particle_filter.cpp): 3 mm / 1 degree diffusion keeps a 2 cm + 10 degree per
 // frame motion captured once dX is known, and a sharp lambda keeps the weighted mean precise.
+// Member defaults: the thesis's values, for library users and unit tests; the services and
+// mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
 struct ParticleFilterOptions {
   int num_particles = 200;  // [1, 1000000]; the thesis runs 100 to 200
   // Standard deviations of C_init (2.12) over (x, y, z, roll, pitch, yaw): metres, radians; >= 0.

@@ -163,6 +163,8 @@ class PlaneFitter {
   std::vector<Eigen::Vector3f> sample_;
 };
 
+// Member defaults: the thesis's values, for library users and unit tests; the services and
+// mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
 struct PreprocessorOptions {
   // Workspace crop box in the camera frame, metres (min < max per axis).
   Eigen::Vector3f crop_min{-1.5f, -1.5f, 0.3f};

@@ -60,37 +60,37 @@ void CaptureSettings::validate() const {
 
 CaptureSettings load_capture_settings(service::ConfigSection section) {
   CaptureSettings s;
-  s.source = section.choice("source", s.source, {"sim", "tum", "oni", "openni2", "lcmlog"});
-  s.rate = parse_rate_mode(section.choice("rate", to_string(s.rate), {"realtime", "fast", "lockstep"}));
-  s.speed = section.get<double>("speed", s.speed, 1e-3, 100.0);
-  s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", s.lockstep_timeout_s, 1e-3, 3600.0);
-  s.lockstep_window = section.get<int>("lockstep_window", s.lockstep_window, 1, service::kMaxLockstepWindow);
-  s.max_frames = section.get<long>("max_frames", s.max_frames, 0L, std::numeric_limits<long>::max());
-  s.start_frame = section.get<long>("start_frame", s.start_frame, 0L, std::numeric_limits<long>::max());
-  s.loop = section.get<bool>("loop", s.loop);
-  s.groundtruth_dir = section.get<std::string>("groundtruth_dir", s.groundtruth_dir);
+  s.source = section.choice("source", {"sim", "tum", "oni", "openni2", "lcmlog"});
+  s.rate = parse_rate_mode(section.choice("rate", {"realtime", "fast", "lockstep"}));
+  s.speed = section.get<double>("speed", 1e-3, 100.0);
+  s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", 1e-3, 3600.0);
+  s.lockstep_window = section.get<int>("lockstep_window", 1, service::kMaxLockstepWindow);
+  s.max_frames = section.get<long>("max_frames", 0L, std::numeric_limits<long>::max());
+  s.start_frame = section.get<long>("start_frame", 0L, std::numeric_limits<long>::max());
+  s.loop = section.get<bool>("loop");
+  s.groundtruth_dir = section.get<std::string>("groundtruth_dir");
 
   s.encoding.depth =
-      service::parse_depth_encoding(section.choice("depth_encoding", to_string(s.encoding.depth), {"raw", "zlib", "rvl"}));
+      service::parse_depth_encoding(section.choice("depth_encoding", {"raw", "zlib", "rvl"}));
   s.encoding.color = service::parse_color_encoding(
-      section.choice("color_encoding", to_string(s.encoding.color), {"raw", "jpeg", "png"}));
-  s.encoding.jpeg_quality = section.get<int>("jpeg_quality", s.encoding.jpeg_quality, 1, 100);
-  s.encoding.zlib_level = section.get<int>("zlib_level", s.encoding.zlib_level, 0, 9);
+      section.choice("color_encoding", {"raw", "jpeg", "png"}));
+  s.encoding.jpeg_quality = section.get<int>("jpeg_quality", 1, 100);
+  s.encoding.zlib_level = section.get<int>("zlib_level", 0, 9);
 
-  s.scenario = section.choice("scenario", s.scenario, sim::scenario_names());
-  s.seed = section.get<unsigned long>("seed", s.seed);
-  s.sim_frames = section.get<int>("sim_frames", s.sim_frames, 0, 1000000);
-  s.sim_noise = section.get<bool>("sim_noise", s.sim_noise);
-  s.sim_objects = section.get<int>("sim_objects", s.sim_objects, 1, 16);
+  s.scenario = section.choice("scenario", sim::scenario_names());
+  s.seed = section.get<unsigned long>("seed");
+  s.sim_frames = section.get<int>("sim_frames", 0, 1000000);
+  s.sim_noise = section.get<bool>("sim_noise");
+  s.sim_objects = section.get<int>("sim_objects", 1, 16);
 
-  s.tum_folder = section.get<std::string>("folder", s.tum_folder);
-  s.depth_scale = section.get<double>("depth_scale", s.depth_scale, 1e-3, 1e9);
-  s.max_time_difference_s = section.get<double>("max_time_difference_s", s.max_time_difference_s, 1e-6, 10.0);
+  s.tum_folder = section.get<std::string>("folder");
+  s.depth_scale = section.get<double>("depth_scale", 1e-3, 1e9);
+  s.max_time_difference_s = section.get<double>("max_time_difference_s", 1e-6, 10.0);
 
-  s.log_file = section.get<std::string>("log_file", s.log_file);
-  s.oni_file = section.get<std::string>("oni_file", s.oni_file);
-  s.device_uri = section.get<std::string>("device_uri", s.device_uri);
-  s.reopen_max_backoff_s = section.get<double>("reopen_max_backoff_s", s.reopen_max_backoff_s, 0.5, 600.0);
+  s.log_file = section.get<std::string>("log_file");
+  s.oni_file = section.get<std::string>("oni_file");
+  s.device_uri = section.get<std::string>("device_uri");
+  s.reopen_max_backoff_s = section.get<double>("reopen_max_backoff_s", 0.5, 600.0);
 
   section.finish();
   return s;

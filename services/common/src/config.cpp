@@ -11,17 +11,46 @@ const std::vector<std::string>& known_sections() {
   return sections;
 }
 
+YAML::Node default_config() {
+  static const YAML::Node parsed = YAML::Load(default_config_text());
+  return YAML::Clone(parsed);
+}
+
+namespace {
+// Fills what `user` lacks from `defaults`, in place (the user's nodes keep their line numbers for
+// error messages).
+void fill_defaults(YAML::Node user, const YAML::Node& defaults) {
+  for (const auto& item : defaults) {
+    const std::string key = item.first.Scalar();
+    YAML::Node mine = user[key];
+    if (!mine || mine.IsNull()) {
+      user[key] = YAML::Clone(item.second);
+    } else if (mine.IsMap() && item.second.IsMap()) {
+      fill_defaults(mine, item.second);
+    }
+  }
+}
+}  // namespace
+
+YAML::Node merged_over_defaults(const YAML::Node& user) {
+  if (!user || !user.IsMap()) return default_config();
+  YAML::Node merged = user;
+  fill_defaults(merged, default_config());
+  return merged;
+}
+
 YAML::Node load_config_file(const std::string& path) {
+  if (path.empty()) return default_config();
   try {
     YAML::Node root = YAML::LoadFile(path);
-    if (root.IsNull()) return YAML::Node(YAML::NodeType::Map);
+    if (root.IsNull()) return default_config();
     if (!root.IsMap()) throw ConfigError(path + ": the top level must be a mapping of service sections");
     try {
       check_top_level(root, known_sections());
     } catch (const ConfigError& e) {
       throw ConfigError(path + ": " + e.what());
     }
-    return root;
+    return merged_over_defaults(root);
   } catch (const YAML::BadFile&) {
     throw ConfigError(path + ": cannot open config file");
   } catch (const YAML::ParserException& e) {
@@ -45,9 +74,12 @@ YAML::Node ConfigSection::lookup(const std::string& key) {
   return value;
 }
 
-std::string ConfigSection::choice(const std::string& key, std::string default_value,
-                                  const std::vector<std::string>& allowed) {
-  const std::string value = get<std::string>(key, std::move(default_value));
+ConfigError ConfigSection::missing(const std::string& key) const {
+  return ConfigError(qualified(key) + ": missing (configs/default.yaml gives every key its default; this build's lacks it)");
+}
+
+std::string ConfigSection::choice(const std::string& key, const std::vector<std::string>& allowed) {
+  const std::string value = get<std::string>(key);
   if (std::find(allowed.begin(), allowed.end(), value) == allowed.end()) {
     std::string list;
     for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
@@ -56,10 +88,9 @@ std::string ConfigSection::choice(const std::string& key, std::string default_va
   return value;
 }
 
-std::vector<double> ConfigSection::get_vector(const std::string& key, std::vector<double> default_value,
-                                              std::size_t size) {
+std::vector<double> ConfigSection::get_vector(const std::string& key, std::size_t size) {
   const YAML::Node value = lookup(key);
-  if (!value || value.IsNull()) return default_value;
+  if (!value || value.IsNull()) throw missing(key);
   if (!value.IsSequence() || value.size() != size) {
     throw ConfigError(qualified(key) + ": expected a list of " + std::to_string(size) + " numbers" + line_of(value));
   }

@@ -27,24 +27,24 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   PreprocessConfig config;
   PreprocessorOptions& o = config.preprocessor;
   auto s = config_section(root, "preprocess");
-  o.crop_min = vector3(s.get_vector("crop_min", {o.crop_min.x(), o.crop_min.y(), o.crop_min.z()}, 3));
-  o.crop_max = vector3(s.get_vector("crop_max", {o.crop_max.x(), o.crop_max.y(), o.crop_max.z()}, 3));
-  o.remove_plane = s.get<bool>("remove_plane", o.remove_plane);
-  o.plane_fit.iterations = s.get<int>("ransac_iterations", o.plane_fit.iterations, 1, 100000);
-  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", o.plane_fit.sample_points, 3, 1000000);
-  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", o.plane_fit.inlier_distance, 1e-4f, 0.5f);
-  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", o.plane_fit.min_inlier_share, 1e-3f, 1.f);
-  o.plane_fit.seed = s.get<std::uint64_t>("seed", o.plane_fit.seed);
-  o.plane_margin = s.get<float>("plane_margin", o.plane_margin, 0.f, 0.5f);
-  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", o.plane_keep_ratio, 1e-3f, 1.f);
-  o.voxel_size = s.get<float>("voxel_size", o.voxel_size, 1e-4f, 1.f);
-  o.cluster = s.get<bool>("cluster", o.cluster);
-  o.cluster_tolerance = s.get<float>("cluster_tolerance", o.cluster_tolerance, 1e-4f, 1.f);
-  o.cluster_min_size = s.get<int>("cluster_min_size", o.cluster_min_size, 1, 10000000);
-  o.cluster_max_size = s.get<int>("cluster_max_size", o.cluster_max_size, 1, 10000000);
-  const int threads = s.get<int>("threads", 0, 0, 64);
+  o.crop_min = vector3(s.get_vector("crop_min", 3));
+  o.crop_max = vector3(s.get_vector("crop_max", 3));
+  o.remove_plane = s.get<bool>("remove_plane");
+  o.plane_fit.iterations = s.get<int>("ransac_iterations", 1, 100000);
+  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", 3, 1000000);
+  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", 1e-4f, 0.5f);
+  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", 1e-3f, 1.f);
+  o.plane_fit.seed = s.get<std::uint64_t>("seed");
+  o.plane_margin = s.get<float>("plane_margin", 0.f, 0.5f);
+  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", 1e-3f, 1.f);
+  o.voxel_size = s.get<float>("voxel_size", 1e-4f, 1.f);
+  o.cluster = s.get<bool>("cluster");
+  o.cluster_tolerance = s.get<float>("cluster_tolerance", 1e-4f, 1.f);
+  o.cluster_min_size = s.get<int>("cluster_min_size", 1, 10000000);
+  o.cluster_max_size = s.get<int>("cluster_max_size", 1, 10000000);
+  const int threads = s.get<int>("threads", 0, 64);
   o.threads = threads > 0 ? threads : auto_preprocess_threads();
-  config.queue_frames = s.get<int>("queue_frames", config.queue_frames, 1, 64);
+  config.queue_frames = s.get<int>("queue_frames", 1, 64);
   s.finish();
   try {
     o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
@@ -57,35 +57,32 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
 TrackerConfig load_tracker_config(const YAML::Node& root) {
   TrackerConfig c;
   auto s = config_section(root, "tracker");
-  c.likelihood.backend = parse_likelihood_backend(s.choice("backend", "auto", {"auto", "cuda", "cpu", "point-to-point"}));
-  c.likelihood.cpu_threads = s.get<int>("threads", 1, 1, 256);
-  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 0, 64);
-  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.015f, 0.001f, 0.2f);
-  c.filter.num_particles = s.get<int>("particles", c.filter.num_particles, 1, 100000);
-  c.filter.lambda = s.get<float>("lambda", c.filter.lambda, 0.f, 1000.f);
-  c.filter.seed = s.get<std::uint64_t>("seed", c.filter.seed);
-  const std::string resampling = s.choice("resampling", "systematic", {"multinomial", "systematic"});
+  c.likelihood.backend = parse_likelihood_backend(s.choice("backend", {"auto", "cuda", "cpu", "point-to-point"}));
+  c.likelihood.cpu_threads = s.get<int>("threads", 1, 256);
+  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 64);
+  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.001f, 0.2f);
+  c.filter.num_particles = s.get<int>("particles", 1, 100000);
+  c.filter.lambda = s.get<float>("lambda", 0.f, 1000.f);
+  c.filter.seed = s.get<std::uint64_t>("seed");
+  const std::string resampling = s.choice("resampling", {"multinomial", "systematic"});
   c.filter.resampling = resampling == "systematic" ? ResamplingScheme::kSystematic : ResamplingScheme::kMultinomial;
-  const auto sigma = s.get_vector("init_sigma",
-                                  {c.filter.init_sigma[0], c.filter.init_sigma[1], c.filter.init_sigma[2],
-                                   c.filter.init_sigma[3], c.filter.init_sigma[4], c.filter.init_sigma[5]},
-                                  6);
+  const auto sigma = s.get_vector("init_sigma", 6);
   for (int i = 0; i < 6; ++i) c.filter.init_sigma[i] = static_cast<float>(sigma[static_cast<std::size_t>(i)]);
-  c.filter.a = s.get<float>("diffusion_a", c.filter.a, 0.f, 100.f);
-  c.filter.b = s.get<float>("diffusion_b", c.filter.b, 0.f, 100.f);
-  c.filter.predicted_fraction = s.get<float>("predicted_fraction", c.filter.predicted_fraction, 0.f, 1.f);
-  c.step.hypothesis.margin = s.get<float>("hypothesis_margin", c.step.hypothesis.margin, 0.f, 1.f);
-  c.step.hold_occluded_share = s.get<float>("hold_occluded_share", c.step.hold_occluded_share, 0.f, 1.f);
-  c.step.max_hold_frames = s.get<int>("max_hold_frames", c.step.max_hold_frames, 1, 100000);
-  c.step.exclude_occluders = s.get<bool>("exclude_occluders", c.step.exclude_occluders);
-  c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", c.step.occlusion.depth_margin, 0.f, 1.f);
-  c.step.occlusion.window = s.get<float>("occlusion_window", c.step.occlusion.window, 1e-4f, 0.1f);
+  c.filter.a = s.get<float>("diffusion_a", 0.f, 100.f);
+  c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
+  c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
+  c.step.hypothesis.margin = s.get<float>("hypothesis_margin", 0.f, 1.f);
+  c.step.hold_occluded_share = s.get<float>("hold_occluded_share", 0.f, 1.f);
+  c.step.max_hold_frames = s.get<int>("max_hold_frames", 1, 100000);
+  c.step.exclude_occluders = s.get<bool>("exclude_occluders");
+  c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", 0.f, 1.f);
+  c.step.occlusion.window = s.get<float>("occlusion_window", 1e-4f, 0.1f);
   c.step.occlusion.own_surface_radius =
-      s.get<float>("own_surface_radius", c.step.occlusion.own_surface_radius, 0.f, 0.1f);
-  c.heartbeat_ms = s.get<int>("heartbeat_ms", 100, 10, 10000);
-  c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", c.scenes.max_scenes, 1, 64);
+      s.get<float>("own_surface_radius", 0.f, 0.1f);
+  c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
+  c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
-      std::chrono::milliseconds(s.get<int>("model_wait_ms", static_cast<int>(c.scenes.model_wait.count()), 1, 600000));
+      std::chrono::milliseconds(s.get<int>("model_wait_ms", 1, 600000));
   s.finish();
   try {
     const ParticleFilter validate_only(c.filter);  // the filter validates its options
@@ -98,34 +95,34 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
 MergerConfig load_merger_config(const YAML::Node& root) {
   MergerConfig c;
   auto s = config_section(root, "merger");
-  c.manager.segmentation.tau = s.get<float>("tau", 0.010f, 1e-4f, 0.1f);
-  c.manager.model_update.alpha = s.get<float>("alpha", 0.02f, 0.f, 1.f);
-  c.manager.model_update.seen_radius = s.get<float>("seen_radius", c.manager.model_update.seen_radius, 0.f, 0.1f);
-  c.manager.model_update.seed = s.get<std::uint64_t>("seed", 1);
-  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 50, 1, 100000);
-  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1500, 1, 100000);
-  c.manager.growth_frames = s.get<int>("growth_frames", 300, 0, 100000);
-  c.manager.propagation_radius = s.get<float>("propagation_radius", 0.015f, 0.f, 0.1f);
-  c.manager.reidentify_frames = s.get<int>("reidentify_frames", 900, 0, 1000000);
-  c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 0.9f, 1e-3f, 1.f);
-  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 3, 1, 1000);
-  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.5f, 0.01f, 1.f);
-  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 20, 0, 100000);
-  c.manager.support.max_frames = s.get<int>("retire_frames", 5, 1, 10000);
+  c.manager.segmentation.tau = s.get<float>("tau", 1e-4f, 0.1f);
+  c.manager.model_update.alpha = s.get<float>("alpha", 0.f, 1.f);
+  c.manager.model_update.seen_radius = s.get<float>("seen_radius", 0.f, 0.1f);
+  c.manager.model_update.seed = s.get<std::uint64_t>("seed");
+  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 1, 100000);
+  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1, 100000);
+  c.manager.growth_frames = s.get<int>("growth_frames", 0, 100000);
+  c.manager.propagation_radius = s.get<float>("propagation_radius", 0.f, 0.1f);
+  c.manager.reidentify_frames = s.get<int>("reidentify_frames", 0, 1000000);
+  c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
+  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 1, 1000);
+  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.01f, 1.f);
+  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 0, 100000);
+  c.manager.support.max_frames = s.get<int>("retire_frames", 1, 10000);
   c.manager.hidden_occluded_share =
-      s.get<float>("hidden_occluded_share", c.manager.hidden_occluded_share, 0.f, 1.f);
+      s.get<float>("hidden_occluded_share", 0.f, 1.f);
   c.manager.occlusion.depth_margin =
-      s.get<float>("hidden_depth_margin", c.manager.occlusion.depth_margin, 0.f, 1.f);
-  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 500, 1, 600000);
-  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 1000, 100, 600000);
-  c.expected_workers = s.get<int>("expected_workers", 0, 0, 1000);
-  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 10000, 0, 600000);
-  c.write_labels = s.get<bool>("write_labels", true);
-  c.fitting_distance = s.get<bool>("fitting_distance", true);
-  c.fps = s.get<float>("fps", 30.f, 1.f, 1000.f);
+      s.get<float>("hidden_depth_margin", 0.f, 1.f);
+  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 1, 600000);
+  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 100, 600000);
+  c.expected_workers = s.get<int>("expected_workers", 0, 1000);
+  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 0, 600000);
+  c.write_labels = s.get<bool>("write_labels");
+  c.fitting_distance = s.get<bool>("fitting_distance");
+  c.fps = s.get<float>("fps", 1.f, 1000.f);
   auto world = s.section("world");
-  const auto t = world.get_vector("translation", {0, 0, 0}, 3);
-  const auto q = world.get_vector("rotation", {1, 0, 0, 0}, 4);
+  const auto t = world.get_vector("translation", 3);
+  const auto q = world.get_vector("rotation", 4);
   double tq[3] = {t[0], t[1], t[2]};
   double qq[4] = {q[0], q[1], q[2], q[3]};
   if (auto error = pose_from_arrays(tq, qq, c.world_from_camera)) {

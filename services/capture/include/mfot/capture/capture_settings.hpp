@@ -1,6 +1,7 @@
 #pragma once
 // Settings of the capture service: section `capture` of the config file, overridden by the
-// command line (see configs/capture.example.yaml for every key), and the source factory.
+// command line (configs/default.yaml documents every key and holds its default), and the source
+// factory.
 
 #include "mfot/capture/frame_source.hpp"
 #include "mfot/capture/pacing.hpp"
@@ -48,8 +49,8 @@ struct CaptureSettings {
   void validate() const;
 };
 
-// Reads every key of the section (unknown keys are errors) on top of the defaults above;
-// validate() after applying command-line overrides.
+// Reads every key of the section (a config laid over configs/default.yaml; unknown keys are
+// errors); validate() after applying command-line overrides.
 CaptureSettings load_capture_settings(service::ConfigSection section);
 
 // Builds the configured source; throws CaptureError (e.g. missing folder, no camera, OpenNI2

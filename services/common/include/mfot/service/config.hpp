@@ -19,9 +19,17 @@ struct ConfigError : std::runtime_error {
 // and `pcl_baseline` (mfot-pcl-baseline).
 const std::vector<std::string>& known_sections();
 
-// Parses a YAML file; throws ConfigError naming the file (and line for syntax errors), and when
-// the top level has a section that is not one of known_sections() (a misspelt section would
-// otherwise be ignored and its settings silently left at their defaults).
+// configs/default.yaml as built in: every key of every section with its default.
+const char* default_config_text();
+YAML::Node default_config();
+
+// `user` laid over the defaults: mappings merge key by key, any other value (a list too) replaces
+// the default; a null value leaves the default.
+YAML::Node merged_over_defaults(const YAML::Node& user);
+
+// Parses a YAML file and lays it over the defaults (an empty path: the defaults alone); throws
+// ConfigError naming the file (and line for syntax errors), and when the top level has a section
+// that is not one of known_sections() (a misspelt section would otherwise be ignored).
 YAML::Node load_config_file(const std::string& path);
 
 // A strict view of one YAML mapping. Reads record the key; finish() throws listing unknown keys.
@@ -32,10 +40,12 @@ class ConfigSection {
   const std::string& path() const { return path_; }
   bool has(const std::string& key) const;
 
+  // Every key must be present: the loaders read configs laid over the defaults, so a missing key
+  // is one that configs/default.yaml lacks.
   template <class T>
-  T get(const std::string& key, T default_value) {
+  T get(const std::string& key) {
     const YAML::Node value = lookup(key);
-    if (!value || value.IsNull()) return default_value;  // lookup() gives a Null node for absent keys
+    if (!value || value.IsNull()) throw missing(key);  // lookup() gives a Null node for absent keys
     try {
       return value.as<T>();
     } catch (const YAML::Exception&) {
@@ -45,8 +55,8 @@ class ConfigSection {
   }
 
   template <class T>
-  T get(const std::string& key, T default_value, T min, T max) {
-    const T value = get<T>(key, default_value);
+  T get(const std::string& key, T min, T max) {
+    const T value = get<T>(key);
     if (!(value >= min && value <= max)) {
       throw ConfigError(qualified(key) + ": value " + to_text(value) + " is out of range [" + to_text(min) + ", " +
                         to_text(max) + "]" + line_of(lookup(key)));
@@ -54,8 +64,8 @@ class ConfigSection {
     return value;
   }
 
-  std::string choice(const std::string& key, std::string default_value, const std::vector<std::string>& allowed);
-  std::vector<double> get_vector(const std::string& key, std::vector<double> default_value, std::size_t size);
+  std::string choice(const std::string& key, const std::vector<std::string>& allowed);
+  std::vector<double> get_vector(const std::string& key, std::size_t size);
   ConfigSection section(const std::string& key);
 
   // Throws ConfigError naming every key of this mapping that was never read.
@@ -63,6 +73,7 @@ class ConfigSection {
 
  private:
   YAML::Node lookup(const std::string& key);
+  ConfigError missing(const std::string& key) const;
   std::string qualified(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
   static std::string scalar_text(const YAML::Node& node);
   static std::string line_of(const YAML::Node& node);

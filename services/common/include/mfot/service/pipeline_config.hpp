@@ -42,7 +42,8 @@ struct MergerConfig {
   float fps = 30.f;
 };
 
-// Every key is documented in configs/default.yaml and configs/preprocess.example.yaml.
+// Every key is read from `root` (a config laid over the defaults, load_config_file) and documented
+// in configs/default.yaml.
 PreprocessConfig load_preprocess_config(const YAML::Node& root);
 TrackerConfig load_tracker_config(const YAML::Node& root);
 MergerConfig load_merger_config(const YAML::Node& root);
