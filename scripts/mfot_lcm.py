@@ -59,9 +59,10 @@ class UdpmUrl:
 
 
 def parse_url(url: Optional[str] = None) -> UdpmUrl:
-    """Parses udpm://GROUP:PORT?ttl=N; None or "" means $LCM_DEFAULT_URL, else DEFAULT_URL."""
+    """Parses udpm://GROUP:PORT?ttl=N; None or "" means $MFOT_LCM_URL (the process group's), else
+    $LCM_DEFAULT_URL, else DEFAULT_URL (as the C++ services' lcm_url())."""
     if not url:
-        url = os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL
+        url = os.environ.get("MFOT_LCM_URL") or os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL
     parts = urlsplit(url)
     if parts.scheme != "udpm":
         raise LcmError(f"LCM URL '{url}': only the udpm provider is supported by mfot_lcm")

@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   std::string rate, depth_encoding, color_encoding;
   int measure = 0;
   app.add_option("--config", config_path, "YAML config (section `capture`)");
-  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
+  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
   auto* o_source = app.add_option("--source", cli.source, "sim | tum | oni | openni2 | lcmlog")
                        ->check(CLI::IsMember({"sim", "tum", "oni", "openni2", "lcmlog"}));
   auto* o_scenario = app.add_option("--scenario", cli.scenario, "sim scenario: stack | contact | rotate | static | random");

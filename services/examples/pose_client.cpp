@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
   std::string url, channel = mfot::service::channel::kPoses;
   long long count = 0;
   bool world = false;
-  app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
+  app.add_option("--lcm-url", url, "LCM URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
   app.add_option("--channel", channel, "channel to subscribe to")->capture_default_str();
   app.add_option("--count", count, "exit after N messages (0: run until Ctrl-C)")->check(CLI::NonNegativeNumber);
   app.add_flag("--world", world, "print the world-frame pose instead of the camera-frame pose");

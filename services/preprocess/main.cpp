@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
   std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   app.add_option("--config", config_path, "YAML config (section `preprocess`)");
-  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $LCM_DEFAULT_URL or udpm ttl=0)");
+  app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
   CLI11_PARSE(app, argc, argv);
   setup_logging("preprocess", 0);
   install_signal_handlers();

@@ -56,16 +56,19 @@ def sample_poses(mfot, frame_seq=42):
 
 class UrlTest(unittest.TestCase):
     def test_defaults_and_environment(self):
-        saved = os.environ.pop("LCM_DEFAULT_URL", None)
+        saved = {k: os.environ.pop(k, None) for k in ("LCM_DEFAULT_URL", "MFOT_LCM_URL")}
         try:
             self.assertEqual(mfot_lcm.parse_url(None), mfot_lcm.UdpmUrl("239.255.76.67", 7667, 0))
             os.environ["LCM_DEFAULT_URL"] = "udpm://239.1.2.3:9000?ttl=1"
             self.assertEqual(mfot_lcm.parse_url(""), mfot_lcm.UdpmUrl("239.1.2.3", 9000, 1))
+            os.environ["MFOT_LCM_URL"] = "udpm://239.4.5.6:9001?ttl=1"  # the group's URL comes first
+            self.assertEqual(mfot_lcm.parse_url(""), mfot_lcm.UdpmUrl("239.4.5.6", 9001, 1))
             self.assertEqual(mfot_lcm.parse_url("udpm://239.9.9.9:1234"), mfot_lcm.UdpmUrl("239.9.9.9", 1234, 0))
         finally:
-            os.environ.pop("LCM_DEFAULT_URL", None)
-            if saved is not None:
-                os.environ["LCM_DEFAULT_URL"] = saved
+            for key, value in saved.items():
+                os.environ.pop(key, None)
+                if value is not None:
+                    os.environ[key] = value
 
     def test_bad_urls_are_refused(self):
         for url in ("memq://", "udpm://10.0.0.1:7667", "udpm://239.1.1.1:7667?ttl=300",
