@@ -37,6 +37,18 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
   return std::nullopt;
 }
 
+std::optional<Scene> receive_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name,
+                                   MalformedCounter& malformed) {
+  scene_cloud_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed)) return std::nullopt;
+  Scene scene;
+  if (auto error = scene_from_message(msg, scene)) {
+    malformed.record(channel_name, "invalid scene", *error);
+    return std::nullopt;
+  }
+  return scene;
+}
+
 RgbdImageView image_view(const Frame& frame) {
   return {frame.width, frame.height, CameraIntrinsics{frame.fx, frame.fy, frame.cx, frame.cy}, frame.depth_mm,
           frame.color};

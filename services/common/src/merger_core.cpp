@@ -1,7 +1,6 @@
 #include "mfot/service/merger_core.hpp"
 
 #include "mfot/heartbeat_t.hpp"
-#include "mfot/scene_cloud_t.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 
 #include <spdlog/spdlog.h>
@@ -37,21 +36,17 @@ MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCou
       clock_(std::move(clock)) {}
 
 void MergerCore::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
-  scene_cloud_t msg;
-  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
-  Scene scene;
-  if (auto error = scene_from_message(msg, scene)) {
-    malformed_.record(channel_name, "invalid scene", *error);
-    return;
-  }
+  std::optional<Scene> scene = receive_scene(rbuf, channel_name, malformed_);
+  if (!scene) return;
+  const std::int64_t seq = scene->frame_seq;
   const auto* bytes = static_cast<const std::uint8_t*>(rbuf->data);
   const std::int64_t last_finished = frames_.last_finished_seq();
-  switch (frames_.add_scene(std::move(scene), {bytes, bytes + rbuf->data_size}, clock_())) {
+  switch (frames_.add_scene(std::move(*scene), {bytes, bytes + rbuf->data_size}, clock_())) {
     case FrameAssembler::Arrival::kNewSequence:
-      spdlog::warn("scene seq {} after {}: a new frame sequence", msg.frame_seq, last_finished);
+      spdlog::warn("scene seq {} after {}: a new frame sequence", seq, last_finished);
       break;
     case FrameAssembler::Arrival::kLate:
-      sink_.note("late or repeated scene " + std::to_string(msg.frame_seq));
+      sink_.note("late or repeated scene " + std::to_string(seq));
       break;
     case FrameAssembler::Arrival::kQueued:
     case FrameAssembler::Arrival::kRepeated:  // our own re-sent scene coming back

@@ -1,7 +1,6 @@
 #include "mfot/service/tracker_worker.hpp"
 
 #include "mfot/object_model_t.hpp"
-#include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/convert.hpp"
 
 #include <spdlog/spdlog.h>
@@ -65,18 +64,14 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
 }
 
 void TrackerWorker::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
-  scene_cloud_t msg;
-  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
-  Scene scene;
-  if (auto error = scene_from_message(msg, scene)) {
-    malformed_.record(channel_name, "invalid scene", *error);
-    return;
-  }
+  std::optional<Scene> scene = receive_scene(rbuf, channel_name, malformed_);
+  if (!scene) return;
+  const std::int64_t seq = scene->frame_seq;
   // Frames are tracked in sequence order only: a late (reordered) scene, or one the merger sends
   // again after this worker already has it, is refused.
   const std::int64_t skipped = scenes_.skipped();
-  if (scenes_.add_scene(std::move(scene)) == TrackerSceneQueue::Arrival::kNewSequence) {
-    spdlog::info("scene seq {}: a new frame sequence", msg.frame_seq);
+  if (scenes_.add_scene(std::move(*scene)) == TrackerSceneQueue::Arrival::kNewSequence) {
+    spdlog::info("scene seq {}: a new frame sequence", seq);
   }
   if (scenes_.skipped() != skipped) {
     sink_.note("skipped " + std::to_string(scenes_.skipped()) + " scenes (more than tracker.queue_scenes)");

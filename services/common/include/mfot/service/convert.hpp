@@ -8,6 +8,7 @@
 #include "mfot/object_model_t.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/frame_codec.hpp"
+#include "mfot/service/lcm_util.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/types.hpp"
 
@@ -27,6 +28,10 @@ struct Scene {
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.
 std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& out);
+// A received MFOT_SCENE, decoded and validated; nullopt, counted in `malformed`, when it is not one.
+std::optional<Scene> receive_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name,
+                                   MalformedCounter& malformed);
+
 // The preprocessor's view of a decoded frame (it must outlive the view).
 RgbdImageView image_view(const Frame& frame);
 
