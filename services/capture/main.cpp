@@ -1,5 +1,5 @@
 // mfot-capture: the pipeline's input. Reads registered RGB-D frames from a source (the live
-// simulator, a TUM RGB-D folder, a recorded lcm log, an OpenNI2 .oni recording or a live OpenNI2
+// simulator, a TUM RGB-D folder, a folder of organised PCD files, a recorded lcm log, an OpenNI2 .oni recording or a live OpenNI2
 // camera), encodes them (depth raw/zlib/RVL, colour raw/JPEG/PNG; a log's frames go out as
 // recorded) and publishes frame_t on MFOT_FRAME, paced in real time by the source timestamps, as
 // fast as possible, or in lockstep with the pipeline (at most capture.lockstep_window frames whose
@@ -32,12 +32,12 @@ int main(int argc, char** argv) {
   int measure = 0;
   app.add_option("--config", config_path, "YAML config (section `capture`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
-  auto* o_source = app.add_option("--source", cli.source, "sim | tum | oni | openni2 | lcmlog")
-                       ->check(CLI::IsMember({"sim", "tum", "oni", "openni2", "lcmlog"}));
+  auto* o_source = app.add_option("--source", cli.source, "sim | tum | pcd | oni | openni2 | lcmlog")
+                       ->check(CLI::IsMember({"sim", "tum", "pcd", "oni", "openni2", "lcmlog"}));
   auto* o_scenario = app.add_option("--scenario", cli.scenario, "sim scenario: stack | contact | rotate | static | random");
   auto* o_seed = app.add_option("--seed", cli.seed, "sim: scenario and sensor-noise seed");
   auto* o_sim_frames = app.add_option("--sim-frames", cli.sim_frames, "sim: frames to render, 0 = the scenario's length");
-  auto* o_folder = app.add_option("--folder", cli.tum_folder, "tum: the TUM RGB-D folder");
+  auto* o_folder = app.add_option("--folder", cli.tum_folder, "tum: the TUM RGB-D folder; pcd: the folder of organised PCD files");
   auto* o_depth_scale = app.add_option("--depth-scale", cli.depth_scale, "tum: depth PNG units per metre (TUM: 5000)");
   auto* o_log = app.add_option("--log", cli.log_file, "lcmlog: a recorded run's lcm log (its MFOT_FRAME events)");
   auto* o_oni = app.add_option("--oni", cli.oni_file, "oni: the .oni recording");

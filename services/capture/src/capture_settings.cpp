@@ -1,6 +1,7 @@
 #include "mfot/capture/capture_settings.hpp"
 
 #include "mfot/capture/lcmlog_source.hpp"
+#include "mfot/capture/pcd_source.hpp"
 #include "mfot/capture/sim_source.hpp"
 #include "mfot/capture/tum_source.hpp"
 #ifdef MFOT_HAVE_OPENNI2
@@ -16,9 +17,9 @@ namespace mfot::capture {
 using service::ConfigError;
 
 void CaptureSettings::validate() const {
-  const std::vector<std::string> sources = {"sim", "tum", "oni", "openni2", "lcmlog"};
+  const std::vector<std::string> sources = {"sim", "tum", "pcd", "oni", "openni2", "lcmlog"};
   if (std::find(sources.begin(), sources.end(), source) == sources.end()) {
-    throw ConfigError("capture.source: '" + source + "' is not one of sim|tum|oni|openni2|lcmlog");
+    throw ConfigError("capture.source: '" + source + "' is not one of sim|tum|pcd|oni|openni2|lcmlog");
   }
   if (!(std::isfinite(speed) && speed > 0.0 && speed <= 100.0)) {
     throw ConfigError("capture.speed: " + std::to_string(speed) + " is out of range (0, 100]");
@@ -46,7 +47,12 @@ void CaptureSettings::validate() const {
   }
   if (sim_frames < 0 || sim_frames > 1000000) throw ConfigError("capture.sim_frames: out of range [0, 1000000]");
   if (sim_objects < 1 || sim_objects > 16) throw ConfigError("capture.sim_objects: out of range [1, 16]");
-  if (source == "tum" && tum_folder.empty()) throw ConfigError("capture.folder: required for source tum (--folder)");
+  if ((source == "tum" || source == "pcd") && tum_folder.empty()) {
+    throw ConfigError("capture.folder: required for source " + source + " (--folder)");
+  }
+  if (!(std::isfinite(pcd_fps) && pcd_fps > 0.0 && pcd_fps <= 1000.0)) {
+    throw ConfigError("capture.pcd_fps: out of range (0, 1000]");
+  }
   if (!(std::isfinite(depth_scale) && depth_scale > 0.0)) throw ConfigError("capture.depth_scale: must be > 0");
   if (!(std::isfinite(max_time_difference_s) && max_time_difference_s > 0.0)) {
     throw ConfigError("capture.max_time_difference_s: must be > 0");
@@ -60,7 +66,7 @@ void CaptureSettings::validate() const {
 
 CaptureSettings load_capture_settings(service::ConfigSection section) {
   CaptureSettings s;
-  s.source = section.choice("source", {"sim", "tum", "oni", "openni2", "lcmlog"});
+  s.source = section.choice("source", {"sim", "tum", "pcd", "oni", "openni2", "lcmlog"});
   s.rate = parse_rate_mode(section.choice("rate", {"realtime", "fast", "lockstep"}));
   s.speed = section.get<double>("speed", 1e-3, 100.0);
   s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", 1e-3, 3600.0);
@@ -87,6 +93,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.depth_scale = section.get<double>("depth_scale", 1e-3, 1e9);
   s.max_time_difference_s = section.get<double>("max_time_difference_s", 1e-6, 10.0);
 
+  s.pcd_fps = section.get<double>("pcd_fps", 1e-3, 1000.0);
   s.log_file = section.get<std::string>("log_file");
   s.oni_file = section.get<std::string>("oni_file");
   s.device_uri = section.get<std::string>("device_uri");
@@ -131,6 +138,7 @@ std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::f
     }
   }
   if (settings.source == "lcmlog") return std::make_unique<LcmLogSource>(settings.log_file);
+  if (settings.source == "pcd") return std::make_unique<PcdFolderSource>(settings.tum_folder, 1.0 / settings.pcd_fps);
 #ifdef MFOT_HAVE_OPENNI2
   OpenNiOptions options;
   options.file = settings.source == "oni";

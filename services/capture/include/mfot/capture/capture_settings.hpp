@@ -16,7 +16,7 @@
 namespace mfot::capture {
 
 struct CaptureSettings {
-  std::string source = "sim";           // sim | tum | oni | openni2 | lcmlog
+  std::string source = "sim";           // sim | tum | pcd | oni | openni2 | lcmlog
   RateMode rate = RateMode::kRealtime;
   double speed = 1.0;                   // real-time playback factor, (0, 100]
   double lockstep_timeout_s = 5.0;      // wait for MFOT_POSES before warning and moving on, (0, 3600]
@@ -33,8 +33,9 @@ struct CaptureSettings {
   int sim_frames = 0;                   // 0 = the scenario's own length
   bool sim_noise = true;                // Kinect-like sensor noise
   int sim_objects = 3;                  // random scenario: objects on the table [1, 16]
-  // tum
+  // tum and pcd
   std::string tum_folder;
+  double pcd_fps = 30.0;                // pcd: the files carry no time
   double depth_scale = 5000.0;          // depth PNG units per metre
   double max_time_difference_s = 0.02;  // rgb/depth association tolerance
   // lcmlog: the MFOT_FRAME events of a recorded run, as recorded (replay)
