@@ -255,10 +255,14 @@ TEST(TumDataset, IntrinsicsComeFromFileOptionsOrTumDefaults) {
   write_dataset(temp.str("seq"), 1);
   TumReaderOptions options = reader_options(temp.str("seq"));
   options.intrinsics = std::array<float, 4>{500.0f, 501.0f, 10.0f, 8.0f};
-  const auto overridden = TumDatasetReader(options).read(0);
-  EXPECT_EQ(overridden->fx, 500.0f);
-  EXPECT_EQ(overridden->cy, 8.0f);
+  const auto from_file = TumDatasetReader(options).read(0);  // the folder's intrinsics.txt wins
+  const auto file_only = TumDatasetReader(reader_options(temp.str("seq"))).read(0);
+  EXPECT_EQ(from_file->fx, file_only->fx);
+  EXPECT_NE(from_file->fx, 500.0f);
   fs::remove(temp.str("seq/intrinsics.txt"));
+  const auto configured = TumDatasetReader(options).read(0);  // without it, the configured ones
+  EXPECT_EQ(configured->fx, 500.0f);
+  EXPECT_EQ(configured->cy, 8.0f);
   const auto defaults = TumDatasetReader(reader_options(temp.str("seq"))).read(0);
   EXPECT_EQ(defaults->fx, kTumDefaultFx);
   EXPECT_EQ(defaults->cx, kTumDefaultCx);

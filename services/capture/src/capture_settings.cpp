@@ -54,6 +54,10 @@ void CaptureSettings::validate() const {
     throw ConfigError("capture.pcd_fps: out of range (0, 1000]");
   }
   if (!(std::isfinite(depth_scale) && depth_scale > 0.0)) throw ConfigError("capture.depth_scale: must be > 0");
+  if (!(tum_intrinsics[0] > 0.f && tum_intrinsics[1] > 0.f && std::isfinite(tum_intrinsics[2]) &&
+        std::isfinite(tum_intrinsics[3]))) {
+    throw ConfigError("capture.tum_intrinsics: fx and fy must be > 0 and cx, cy finite");
+  }
   if (!(std::isfinite(max_time_difference_s) && max_time_difference_s > 0.0)) {
     throw ConfigError("capture.max_time_difference_s: must be > 0");
   }
@@ -92,6 +96,8 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.tum_folder = section.get<std::string>("folder");
   s.depth_scale = section.get<double>("depth_scale", 1e-3, 1e9);
   s.max_time_difference_s = section.get<double>("max_time_difference_s", 1e-6, 10.0);
+  const auto intrinsics = section.get_vector("tum_intrinsics", 4);
+  for (std::size_t i = 0; i < 4; ++i) s.tum_intrinsics[i] = static_cast<float>(intrinsics[i]);
 
   s.pcd_fps = section.get<double>("pcd_fps", 1e-3, 1000.0);
   s.log_file = section.get<std::string>("log_file");
@@ -131,6 +137,7 @@ std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::f
     options.folder = settings.tum_folder;
     options.depth_scale = settings.depth_scale;
     options.max_time_difference_s = settings.max_time_difference_s;
+    options.intrinsics = settings.tum_intrinsics;
     try {
       return std::make_unique<TumSource>(options);
     } catch (const service::DatasetError& e) {

@@ -225,10 +225,10 @@ TumDatasetReader::TumDatasetReader(TumReaderOptions options) : options_(std::mov
   const auto rgb = read_list("rgb.txt");
   const auto depth = read_list("depth.txt");
 
-  if (options_.intrinsics) {
+  if (const auto path = (fs::path(folder) / "intrinsics.txt").string(); fs::exists(path, error)) {
+    intrinsics_ = read_intrinsics(path);  // the folder's own calibration wins
+  } else if (options_.intrinsics) {
     intrinsics_ = *options_.intrinsics;
-  } else if (const auto path = (fs::path(folder) / "intrinsics.txt").string(); fs::exists(path, error)) {
-    intrinsics_ = read_intrinsics(path);
   } else {
     intrinsics_ = {kTumDefaultFx, kTumDefaultFy, kTumDefaultCx, kTumDefaultCy};
   }

@@ -8,6 +8,7 @@
 #include "mfot/service/config.hpp"
 #include "mfot/service/frame_codec.hpp"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -38,6 +39,8 @@ struct CaptureSettings {
   double pcd_fps = 30.0;                // pcd: the files carry no time
   double depth_scale = 5000.0;          // depth PNG units per metre
   double max_time_difference_s = 0.02;  // rgb/depth association tolerance
+  std::array<float, 4> tum_intrinsics{service::kTumDefaultFx, service::kTumDefaultFy, service::kTumDefaultCx,
+                                      service::kTumDefaultCy};  // fx fy cx cy of a folder without intrinsics.txt
   // lcmlog: the MFOT_FRAME events of a recorded run, as recorded (replay)
   std::string log_file;
   // oni

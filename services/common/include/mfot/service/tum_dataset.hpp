@@ -39,7 +39,8 @@ struct TumReaderOptions {
   std::string folder;
   double depth_scale = 5000.0;           // depth PNG units per metre, > 0
   double max_time_difference_s = 0.02;   // rgb/depth association tolerance, > 0
-  // When set, overrides intrinsics.txt and the TUM defaults: fx, fy, cx, cy.
+  // For a folder without intrinsics.txt (which wins when present): fx, fy, cx, cy; unset: the TUM
+  // defaults.
   std::optional<std::array<float, 4>> intrinsics;
 
   void validate() const;  // std::invalid_argument naming the field
