@@ -1,3 +1,4 @@
+#include "mfot/capture/capture_settings.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/pipeline_config.hpp"
 
@@ -147,6 +148,7 @@ TEST(PipelineConfig, QueuesThreadsAndModelWaitAreReadAndRangeChecked) {
 // Every key of the built-in defaults is read by a loader: without it, loading fails naming it.
 TEST(DefaultConfig, EveryKeyReachesALoader) {
   const auto load_all = [](const YAML::Node& root) {
+    capture::load_capture_settings(config_section(root, "capture"));
     load_preprocess_config(root);
     load_tracker_config(root);
     load_merger_config(root);
@@ -154,7 +156,7 @@ TEST(DefaultConfig, EveryKeyReachesALoader) {
   const YAML::Node defaults = default_config();
   ASSERT_NO_THROW(load_all(defaults));
   int keys = 0;
-  for (const char* section : {"preprocess", "tracker", "merger"}) {
+  for (const char* section : {"capture", "preprocess", "tracker", "merger"}) {
     std::vector<std::vector<std::string>> paths;  // leaf keys, nested mappings (merger.world) included
     for (const auto& item : defaults[section]) {
       const std::string key = item.first.Scalar();
@@ -181,7 +183,7 @@ TEST(DefaultConfig, EveryKeyReachesALoader) {
       ++keys;
     }
   }
-  EXPECT_GT(keys, 60);
+  EXPECT_GT(keys, 90);
 }
 
 // A config that leaves keys out runs the shipped configuration, not the option structs' thesis
