@@ -73,7 +73,7 @@ TEST(PcdFolderSource, PlaysTheFilesInNaturalOrderAsRgbdFrames) {
   folder.write("frame2.pcd", organised_pcd(0.8f));
   folder.write("frame1.pcd", organised_pcd(0.6f));
   folder.write("notes.txt", "not a cloud");
-  PcdFolderSource source(folder.str(), 0.1);
+  PcdFolderSource source(folder.str(), 0.1, 0);
   ASSERT_EQ(source.files().size(), 3u);
   EXPECT_EQ(source.kind(), "pcd");
   for (const float base : {0.6f, 0.8f, 1.0f}) {
@@ -111,7 +111,7 @@ TEST(PcdFolderSource, SkipsEveryUnusableFileNamingItAndGoesOn) {
   folder.write("a5.pcd", organised_pcd(0.9f, kHeight, true));                // NaN everywhere
   folder.write("a6.pcd", "garbage\n");                                        // not a PCD
   folder.write("a7.pcd", organised_pcd(1.1f, kHeight, false, "rgb"));
-  PcdFolderSource source(folder.str(), 1.0 / 30.0);
+  PcdFolderSource source(folder.str(), 1.0 / 30.0, 0);
   auto item = source.next();
   ASSERT_TRUE(item);
   EXPECT_EQ(item->frame.depth_mm[1], 710);
@@ -126,12 +126,42 @@ TEST(PcdFolderSource, SkipsEveryUnusableFileNamingItAndGoesOn) {
 TEST(PcdFolderSource, AMissingOrEmptyFolderIsRefusedWithItsName) {
   PcdFolder folder;
   try {
-    PcdFolderSource source(folder.str(), 0.1);
+    PcdFolderSource source(folder.str(), 0.1, 0);
     FAIL() << "an empty folder was accepted";
   } catch (const CaptureError& e) {
     EXPECT_NE(std::string(e.what()).find("no .pcd files"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(PcdFolderSource("/nonexistent/pcds", 0.1), CaptureError);
+  EXPECT_THROW(PcdFolderSource("/nonexistent/pcds", 0.1, 0), CaptureError);
+}
+
+TEST(PcdFolderSource, ALabelFieldIsTheGroundTruthWithTheBackgroundLabelsAsZero) {
+  PcdFolder folder;
+  std::ostringstream out;
+  out << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z rgba label\nSIZE 4 4 4 4 4\nTYPE F F F U U\nCOUNT 1 1 1 1 1\n"
+      << "WIDTH " << kWidth << "\nHEIGHT " << kHeight << "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << kWidth * kHeight
+      << "\nDATA ascii\n";
+  out.precision(9);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const float z = 0.8f + 0.01f * static_cast<float>(u + v);
+      out << (static_cast<float>(u) - kCx) * z / kFx << ' ' << (static_cast<float>(v) - kCy) * z / kFy << ' ' << z
+          << " 4278190080 " << (u < 4 ? 3 : 25) << '\n';  // mOSD-like: 3 a part of the table, 25 an object's
+    }
+  }
+  folder.write("labelled.pcd", out.str());
+  folder.write("plain.pcd", organised_pcd(0.8f));
+  PcdFolderSource source(folder.str(), 0.1, 9);
+  const auto labelled = source.next();
+  ASSERT_TRUE(labelled && labelled->truth);
+  const service::Image16& labels = labelled->truth->labels;
+  ASSERT_EQ(labels.width, kWidth);
+  ASSERT_EQ(labels.height, kHeight);
+  EXPECT_EQ(labels.pixels[kWidth + 1], 0);   // the table: background
+  EXPECT_EQ(labels.pixels[kWidth + 5], 25);  // the object's part keeps its label
+  EXPECT_TRUE(labelled->truth->objects.empty());
+  const auto plain = source.next();
+  ASSERT_TRUE(plain);
+  EXPECT_FALSE(plain->truth);  // no label field, no ground truth
 }
 
 TEST(PcdFolderSource, NaturalOrderComparesNumbersByValue) {

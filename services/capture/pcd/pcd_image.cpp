@@ -64,6 +64,12 @@ bool read_organised_pcd(const std::string& path, PcdImage& out, std::string& err
     out.rgb[3 * i + 1] = p.g;
     out.rgb[3 * i + 2] = p.b;
   }
+  out.label.clear();
+  if (has_field(blob, "label")) {
+    pcl::PointCloud<pcl::Label> labels;
+    pcl::fromPCLPointCloud2(blob, labels);
+    for (const pcl::Label& l : labels) out.label.push_back(l.label);
+  }
   return true;
 }
 

@@ -100,6 +100,7 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   for (std::size_t i = 0; i < 4; ++i) s.tum_intrinsics[i] = static_cast<float>(intrinsics[i]);
 
   s.pcd_fps = section.get<double>("pcd_fps", 1e-3, 1000.0);
+  s.pcd_background_label_max = section.get<unsigned long>("pcd_background_label_max", 0UL, 65534UL);
   s.log_file = section.get<std::string>("log_file");
   s.oni_file = section.get<std::string>("oni_file");
   s.device_uri = section.get<std::string>("device_uri");
@@ -145,7 +146,10 @@ std::unique_ptr<FrameSource> make_source(const CaptureSettings& settings, std::f
     }
   }
   if (settings.source == "lcmlog") return std::make_unique<LcmLogSource>(settings.log_file);
-  if (settings.source == "pcd") return std::make_unique<PcdFolderSource>(settings.tum_folder, 1.0 / settings.pcd_fps);
+  if (settings.source == "pcd") {
+    return std::make_unique<PcdFolderSource>(settings.tum_folder, 1.0 / settings.pcd_fps,
+                                             static_cast<std::uint32_t>(settings.pcd_background_label_max));
+  }
 #ifdef MFOT_HAVE_OPENNI2
   OpenNiOptions options;
   options.file = settings.source == "oni";

@@ -83,8 +83,24 @@ service::Frame frame_from_organised_cloud(const PcdImage& image) {
   return frame;
 }
 
-PcdFolderSource::PcdFolderSource(const std::string& folder, double frame_period_s)
-    : folder_(folder), frame_period_s_(frame_period_s) {
+service::GroundTruthFrame labels_as_truth(const PcdImage& image, std::int64_t index, std::int64_t utime,
+                                          std::uint32_t background_label_max) {
+  service::GroundTruthFrame truth;
+  truth.frame = index;
+  truth.utime = utime;
+  truth.labels.width = image.width;
+  truth.labels.height = image.height;
+  truth.labels.pixels.reserve(image.label.size());
+  // Label images are 16-bit and 65535 marks measured pixels that are not scene points.
+  for (const std::uint32_t label : image.label) {
+    truth.labels.pixels.push_back(
+        label <= background_label_max ? 0 : static_cast<std::uint16_t>(std::min<std::uint32_t>(label, 65534)));
+  }
+  return truth;
+}
+
+PcdFolderSource::PcdFolderSource(const std::string& folder, double frame_period_s, std::uint32_t background_label_max)
+    : folder_(folder), frame_period_s_(frame_period_s), background_label_max_(background_label_max) {
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) throw CaptureError(folder + ": not a folder of PCD files");
   for (const auto& entry : fs::directory_iterator(folder, ec)) {
@@ -108,6 +124,9 @@ std::optional<SourceFrame> PcdFolderSource::next() {
         item.frame = frame_from_organised_cloud(image);
         item.index = index_;
         item.frame.capture_utime = static_cast<std::int64_t>(std::llround(1e6 * frame_period_s_ * static_cast<double>(index_)));
+        if (!image.label.empty()) {
+          item.truth = labels_as_truth(image, item.index, item.frame.capture_utime, background_label_max_);
+        }
         ++index_;
         return item;
       }

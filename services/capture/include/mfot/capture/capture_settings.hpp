@@ -37,6 +37,7 @@ struct CaptureSettings {
   // tum and pcd
   std::string tum_folder;
   double pcd_fps = 30.0;                // pcd: the files carry no time
+  unsigned long pcd_background_label_max = 0;  // pcd: labels up to this are background in the ground truth
   double depth_scale = 5000.0;          // depth PNG units per metre
   double max_time_difference_s = 0.02;  // rgb/depth association tolerance
   std::array<float, 4> tum_intrinsics{service::kTumDefaultFx, service::kTumDefaultFy, service::kTumDefaultCx,
