@@ -24,18 +24,27 @@ SUBNET = "10.213.0"
 
 
 def available() -> tuple[bool, str]:
-    """Whether namespaces can be made here, and why not."""
+    """Whether simulated hosts can be made here (a namespace, a bridge, a veth link, a UTS namespace),
+    and why not."""
     if os.geteuid() != 0:
         return False, "network namespaces need root"
     for tool in ("ip", "unshare"):
         if shutil.which(tool) is None:
             return False, f"{tool} is not installed (iproute2 / util-linux)"
     probe = f"mfot-probe-{os.getpid()}"
-    res = subprocess.run(["ip", "netns", "add", probe], capture_output=True, text=True)
-    if res.returncode != 0:
-        return False, f"cannot create a network namespace: {res.stderr.strip()}"
-    subprocess.run(["ip", "netns", "del", probe], capture_output=True)
-    return True, ""
+    steps = [["ip", "netns", "add", probe],
+             ["ip", "-n", probe, "link", "add", "br0", "type", "bridge", "mcast_snooping", "0"],
+             ["ip", "-n", probe, "link", "add", "a0", "type", "veth", "peer", "name", "b0"],
+             ["ip", "-n", probe, "link", "set", "a0", "master", "br0"],
+             ["ip", "netns", "exec", probe, "unshare", "--uts", "true"]]
+    try:
+        for step in steps:
+            res = subprocess.run(step, capture_output=True, text=True)
+            if res.returncode != 0:
+                return False, f"cannot simulate hosts here: {' '.join(step)}: {res.stderr.strip()}"
+        return True, ""
+    finally:
+        subprocess.run(["ip", "netns", "del", probe], capture_output=True)
 
 
 class SimulatedHosts:
