@@ -1,7 +1,7 @@
 #pragma once
 // The merger's protocol engine, transport-free: it takes the messages the merger subscribes to
 // (scenes, estimates, heartbeats) as received bytes, validates them, and runs the frame loop of
-// thesis 3.1 / 3.4 around ObjectManager. Steps, per call of step(now):
+// thesis 3.1 / 3.4 around ObjectManager. Steps, per call of step() (at the clock's time):
 //   1. workers silent past the timeout are declared dead (WorkerPool::expire);
 //   2. objects without a live owner go to idle workers, who are sent their model (assign);
 //   3. while the oldest open frame is due (FrameAssembler::poll; lost scenes and models are sent
