@@ -213,5 +213,17 @@ TEST(DefaultConfig, AnEmptyConfigIsTheShippedOne) {
   EXPECT_TRUE(load_tracker_config(changed).step.exclude_occluders);
 }
 
+// The configs shipped for real set-ups load through every loader.
+TEST(DefaultConfig, TheRealTableTopConfigLoads) {
+  const YAML::Node root = load_config_file(std::string(MFOT_SOURCE_DIR) + "/configs/tabletop-real.yaml");
+  const capture::CaptureSettings capture = capture::load_capture_settings(config_section(root, "capture"));
+  EXPECT_EQ(capture.pcd_background_label_max, 9u);
+  const PreprocessConfig preprocess = load_preprocess_config(root);
+  EXPECT_FLOAT_EQ(preprocess.preprocessor.crop_max.z(), 1.6f);
+  EXPECT_FLOAT_EQ(preprocess.preprocessor.plane_margin, 0.015f);
+  EXPECT_NO_THROW(load_tracker_config(root));
+  EXPECT_NO_THROW(load_merger_config(root));
+}
+
 }  // namespace
 }  // namespace mfot::service
