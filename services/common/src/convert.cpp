@@ -1,8 +1,32 @@
 #include "mfot/service/convert.hpp"
 
 #include <cmath>
+#include <span>
 
 namespace mfot::service {
+
+namespace {
+// Points and colours into a message's x, y, z, r, g, b arrays (scene_cloud_t, object_model_t),
+// reusing their capacity.
+template <class Message>
+void write_points(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors, Message& out) {
+  const std::size_t n = positions.size();
+  out.x.resize(n);
+  out.y.resize(n);
+  out.z.resize(n);
+  out.r.resize(n);
+  out.g.resize(n);
+  out.b.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    out.x[i] = positions[i].x();
+    out.y[i] = positions[i].y();
+    out.z[i] = positions[i].z();
+    out.r[i] = colors[i].r;
+    out.g[i] = colors[i].g;
+    out.b[i] = colors[i].b;
+  }
+}
+}  // namespace
 
 namespace {
 bool finite3(float x, float y, float z) { return std::isfinite(x) && std::isfinite(y) && std::isfinite(z); }
@@ -67,20 +91,7 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxe
   out.voxel_size = voxel_size;
   for (int i = 0; i < 4; ++i) out.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
   out.num_points = static_cast<std::int32_t>(n);
-  out.x.resize(n);
-  out.y.resize(n);
-  out.z.resize(n);
-  out.r.resize(n);
-  out.g.resize(n);
-  out.b.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    out.x[i] = scene.positions[i].x();
-    out.y[i] = scene.positions[i].y();
-    out.z[i] = scene.positions[i].z();
-    out.r[i] = scene.colors[i].r;
-    out.g[i] = scene.colors[i].g;
-    out.b[i] = scene.colors[i].b;
-  }
+  write_points(scene.positions, scene.colors, out);
   out.u.assign(scene.pixel_u.begin(), scene.pixel_u.end());
   out.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
   out.cluster.assign(scene.cluster.begin(), scene.cluster.end());
@@ -143,21 +154,7 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
 void model_to_message(const ObjectModel& model, object_model_t& msg) {
   const std::size_t n = model.cloud.size();
   msg.num_points = static_cast<std::int32_t>(n);
-  msg.x.resize(n);
-  msg.y.resize(n);
-  msg.z.resize(n);
-  msg.r.resize(n);
-  msg.g.resize(n);
-  msg.b.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto& p = model.cloud.positions[i];
-    msg.x[i] = p.x();
-    msg.y[i] = p.y();
-    msg.z[i] = p.z();
-    msg.r[i] = model.cloud.colors[i].r;
-    msg.g[i] = model.cloud.colors[i].g;
-    msg.b[i] = model.cloud.colors[i].b;
-  }
+  write_points(model.cloud.positions, model.cloud.colors, msg);
 }
 
 }  // namespace mfot::service
