@@ -221,3 +221,76 @@ PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSum
 }
 
 }  // namespace mfot
+
+namespace mfot {
+
+void SegmentMatchOptions::validate() const {
+  if (!(found_iou > 0.0 && found_iou <= 1.0)) {
+    throw std::invalid_argument("SegmentMatchOptions.found_iou must be in (0, 1], got " + std::to_string(found_iou));
+  }
+  if (!(part_share > 0.0 && part_share <= 0.5)) {
+    throw std::invalid_argument("SegmentMatchOptions.part_share must be in (0, 0.5], got " + std::to_string(part_share));
+  }
+}
+
+SegmentMatch match_segments(std::span<const std::int32_t> truth, std::span<const std::int32_t> predicted,
+                            const SegmentMatchOptions& options) {
+  options.validate();
+  if (truth.size() != predicted.size()) {
+    throw std::invalid_argument("match_segments: " + std::to_string(truth.size()) + " truth labels but " +
+                                std::to_string(predicted.size()) + " predicted");
+  }
+  std::map<std::int32_t, std::size_t> segment_size, object_size, object_background;
+  std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> overlap;  // (segment, object)
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    if (truth[i] != 0) ++segment_size[truth[i]];
+    if (predicted[i] != 0) {
+      ++object_size[predicted[i]];
+      if (truth[i] == 0) ++object_background[predicted[i]];
+    }
+    if (truth[i] != 0 && predicted[i] != 0) ++overlap[{truth[i], predicted[i]}];
+  }
+  SegmentMatch m;
+  m.segments = segment_size.size();
+  m.objects = object_size.size();
+  // Per segment: its best IoU, its largest object and the objects holding a part of it.
+  std::map<std::int32_t, std::int32_t> largest_object;
+  std::map<std::int32_t, std::size_t> largest_count, parts;
+  std::map<std::int32_t, double> best_iou;
+  for (const auto& [key, count] : overlap) {
+    const auto [segment, object] = key;
+    const double iou = static_cast<double>(count) /
+                       static_cast<double>(segment_size[segment] + object_size[object] - count);
+    best_iou[segment] = std::max(best_iou[segment], iou);
+    if (count > largest_count[segment]) {
+      largest_count[segment] = count;
+      largest_object[segment] = object;
+    }
+    if (static_cast<double>(count) >= options.part_share * static_cast<double>(segment_size[segment])) ++parts[segment];
+  }
+  double weighted = 0.0, total = 0.0;
+  for (const auto& [segment, size] : segment_size) {
+    const double iou = best_iou[segment];
+    if (iou >= options.found_iou) ++m.found;
+    weighted += static_cast<double>(size) * iou;
+    total += static_cast<double>(size);
+    if (parts[segment] >= 2) ++m.split;
+    const auto largest = largest_object.find(segment);
+    if (largest == largest_object.end()) continue;
+    for (const auto& [other, other_size] : segment_size) {
+      if (other == segment) continue;
+      const auto it = overlap.find({other, largest->second});
+      if (it != overlap.end() && 2 * it->second > other_size) {
+        ++m.merged;
+        break;
+      }
+    }
+  }
+  m.weighted_overlap = total > 0.0 ? weighted / total : 1.0;
+  for (const auto& [object, size] : object_size) {
+    if (2 * object_background[object] > size) ++m.spurious;
+  }
+  return m;
+}
+
+}  // namespace mfot

@@ -32,14 +32,16 @@ void ObjectManagerOptions::validate() const {
                                 std::to_string(hidden_occluded_share));
   }
   occlusion.validate();
+  discovery.validate();
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
   }
 }
 
-ObjectManager::ObjectManager(const ObjectManagerOptions& options)
+ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_ptr<ObjectDiscovery> discovery)
     : options_((options.validate(), options)),
+      discovery_(std::move(discovery)),
       segmenter_(options.segmentation),
       detector_(options.new_objects),
       support_(options.support),
@@ -151,11 +153,11 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     }
   }
   if (frames_ == 0 && objects_.empty()) {
-    for (std::size_t c = 0; c < clusters_.size(); ++c) create_object(scene, clusters_.cluster(c));
+    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, clusters_.cluster(c));
   } else {
     for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
-    for (const int c : confirmed_) create_object(scene, clusters_.cluster(static_cast<std::size_t>(c)));
+    for (const int c : confirmed_) create_objects(scene, clusters_.cluster(static_cast<std::size_t>(c)));
   }
   std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
   ++frames_;
@@ -296,13 +298,34 @@ std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram) const {
   return best;
 }
 
-void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> cluster_points) {
-  // Only the cluster's points that no object explains form the new model.
+void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> cluster_points) {
+  // Only the cluster's points that no object explains form new models.
   std::vector<int> free_points;
   for (const int i : cluster_points) {
     if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
   }
   if (free_points.size() < options_.min_object_points) return;
+  if (!discovery_ || free_points.size() < 2 * options_.min_object_points) {
+    create_object(scene, free_points);
+    return;
+  }
+  part_positions_.clear();
+  part_colors_.clear();
+  for (const int i : free_points) {
+    part_positions_.push_back(scene.positions[static_cast<std::size_t>(i)]);
+    part_colors_.push_back(scene.colors[static_cast<std::size_t>(i)]);
+  }
+  const int parts = discovery_->split(part_positions_, part_colors_, part_of_point_);
+  std::vector<std::vector<int>> points_of_part(static_cast<std::size_t>(std::max(parts, 1)));
+  for (std::size_t k = 0; k < free_points.size(); ++k) {
+    points_of_part[static_cast<std::size_t>(part_of_point_[k])].push_back(free_points[k]);
+  }
+  for (const auto& points : points_of_part) {
+    if (points.size() >= options_.min_object_points) create_object(scene, points);
+  }
+}
+
+void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> free_points) {
   const std::size_t n = std::min(free_points.size(), options_.max_model_points);
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
   for (const int i : free_points) centroid += scene.positions[static_cast<std::size_t>(i)];

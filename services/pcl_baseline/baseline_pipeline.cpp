@@ -93,7 +93,7 @@ void flatten(const ColoredCloud& cloud, std::vector<float>& xyz, std::vector<std
 BaselinePipeline::BaselinePipeline(const BaselineOptions& options)
     : options_(options),
       preprocessor_(options.preprocess),
-      first_frame_objects_(options.manager),
+      first_frame_objects_(options.manager, make_object_discovery(options.manager.discovery)),
       segmenter_(options.manager.segmentation) {}
 
 void BaselinePipeline::process(const Frame& frame, std::int64_t seq, const std::string& source_name) {

@@ -252,3 +252,41 @@ TEST(RelativePoseError, Summary) {
 
 }  // namespace
 }  // namespace mfot
+
+namespace mfot {
+namespace {
+
+TEST(SegmentMatch, CountsFoundMergedSplitAndSpurious) {
+  // Segments 1 (4 points), 2 (4), 3 (4) and background (0, 4 points).
+  const std::vector<std::int32_t> truth{1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 0, 0, 0, 0};
+  // Object 10 is segment 1 exactly; 20 holds segments 2 and 3's first half (merged);
+  // 30 and 40 hold a point of segment 3 each; 50 lies on background.
+  const std::vector<std::int32_t> predicted{10, 10, 10, 10, 20, 20, 20, 20, 20, 20, 30, 40, 50, 50, 50, 0};
+  const SegmentMatch m = match_segments(truth, predicted);
+  EXPECT_EQ(m.segments, 3u);
+  EXPECT_EQ(m.objects, 5u);
+  // IoU: 1 -> 10 = 1; 2 -> 20 = 4/6; 3 -> 20 = 2/8, 30 = 1/4, 40 = 1/4.
+  EXPECT_EQ(m.found, 2u);
+  EXPECT_NEAR(m.weighted_overlap, (4 * 1.0 + 4 * (4.0 / 6.0) + 4 * 0.25) / 12.0, 1e-12);
+  EXPECT_EQ(m.merged, 1u);    // segment 3's largest object (20) holds all of segment 2
+  EXPECT_EQ(m.split, 1u);     // segment 3: 20, 30 and 40 each hold >= 20 %
+  EXPECT_EQ(m.spurious, 1u);  // 50
+}
+
+TEST(SegmentMatch, PerfectAndEmpty) {
+  const std::vector<std::int32_t> truth{1, 1, 2, 2, 0};
+  const SegmentMatch perfect = match_segments(truth, std::vector<std::int32_t>{7, 7, 9, 9, 0});
+  EXPECT_EQ(perfect.found, 2u);
+  EXPECT_DOUBLE_EQ(perfect.weighted_overlap, 1.0);
+  EXPECT_EQ(perfect.merged + perfect.split + perfect.spurious, 0u);
+  const SegmentMatch none = match_segments(truth, std::vector<std::int32_t>(5, 0));
+  EXPECT_EQ(none.found, 0u);
+  EXPECT_DOUBLE_EQ(none.weighted_overlap, 0.0);
+  EXPECT_THROW(match_segments(truth, std::vector<std::int32_t>(4, 0)), std::invalid_argument);
+  SegmentMatchOptions bad;
+  bad.found_iou = 0.0;
+  EXPECT_THROW(match_segments(truth, truth, bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mfot

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <memory>
+#include <set>
 
 namespace mfot {
 namespace {
@@ -49,6 +51,51 @@ TEST(ObjectManager, FirstFrameMakesOneObjectPerClusterAndLabelsIt) {
   EXPECT_EQ(first.model.cloud.size(), 12u * 12u * 6u);
   EXPECT_EQ(first.model.features.size(), first.model.cloud.size());
   EXPECT_TRUE((first.pose.isometry() * first.model.cloud.positions[0]).isApprox(scene.cloud.positions[0], 1e-5f));
+}
+
+// Splits a cluster at x = 0 (a stand-in for the convexity discovery).
+class SplitAtXZero final : public ObjectDiscovery {
+ public:
+  int calls = 0;
+  int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8>, std::vector<int>& part) override {
+    ++calls;
+    part.assign(positions.size(), 0);
+    int first = -1;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      const int side = positions[i].x() < 0.f ? 0 : 1;
+      if (first < 0) first = side;
+      part[i] = side == first ? 0 : 1;
+    }
+    return std::set<int>(part.begin(), part.end()).size();
+  }
+};
+
+TEST(ObjectManager, ADiscoverySplitsABornClusterIntoObjects) {
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.0275f, 0.f, 1.f}, {12, 12, 6});  // one cluster across x = 0
+  auto discovery = std::make_unique<SplitAtXZero>();
+  SplitAtXZero* calls = discovery.get();
+  ObjectManager manager({}, std::move(discovery));
+  const auto& frame = manager.process(cloud, cluster, {});
+  ASSERT_EQ(frame.created, (std::vector<std::int32_t>{1, 2}));
+  for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(frame.labels[i], cloud.positions[i].x() < 0.f ? 1 : 2);
+  EXPECT_EQ(calls->calls, 1);
+  // Tracked objects that explain the scene are never split again: discovery runs at birth only.
+  manager.process(cloud, cluster, unchanged(manager));
+  EXPECT_EQ(calls->calls, 1);
+  EXPECT_EQ(manager.objects().size(), 2u);
+}
+
+TEST(ObjectManager, DiscoveredPartsBelowTheObjectMinimumAreNoObjects) {
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.0525f, 0.f, 1.f}, {12, 2, 2});  // 11 x 4 points left of 0, 1 x 4 right
+  ObjectManagerOptions options;
+  options.min_object_points = 20;
+  ObjectManager manager(options, std::make_unique<SplitAtXZero>());
+  const auto& frame = manager.process(cloud, cluster, {});
+  EXPECT_EQ(frame.created, (std::vector<std::int32_t>{1}));
 }
 
 TEST(ObjectManager, KeepsSegmentingAndMarksMissingEstimatesStale) {

@@ -130,4 +130,30 @@ struct PoseErrorSummary {
 // median of an even count is the mean of the two middle values.
 PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSummaryOptions& options = {});
 
+// ---- object segmentation of a scene (object discovery) ----------------------------------------
+
+// How found objects compare with ground-truth segments, per labelled point (after Richtsfeld et
+// al.'s OSD and Stein et al.'s LCCP evaluation): a segment is found when one object overlaps it with
+// IoU >= found_iou; WOv is the segment-size-weighted best IoU.
+struct SegmentMatchOptions {
+  double found_iou = 0.5;     // (0, 1]
+  double part_share = 0.2;    // an object holding at least this share of a segment holds a part of it, (0, 0.5]
+  void validate() const;      // throws std::invalid_argument naming the field
+};
+
+struct SegmentMatch {
+  std::size_t segments = 0;   // ground-truth segments (labels != 0)
+  std::size_t objects = 0;    // predicted objects (labels != 0)
+  std::size_t found = 0;      // segments with an object of IoU >= found_iou
+  double weighted_overlap = 0.0;  // WOv: sum over segments of size x best IoU / sum of sizes; 1 with no segment
+  std::size_t merged = 0;     // segments whose largest object also holds most of another segment
+  std::size_t split = 0;      // segments at least two objects each hold part_share of
+  std::size_t spurious = 0;   // objects with most of their points on background (truth 0)
+};
+
+// truth / predicted: one label per point (0 = background / no object), same length (else
+// std::invalid_argument).
+SegmentMatch match_segments(std::span<const std::int32_t> truth, std::span<const std::int32_t> predicted,
+                            const SegmentMatchOptions& options = {});
+
 }  // namespace mfot

@@ -6,6 +6,7 @@
 #include "mfot/individuation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_updater.hpp"
+#include "mfot/object_discovery.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
@@ -54,6 +55,9 @@ struct ObjectManagerOptions {
   // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
   float hidden_occluded_share = 0.0f;
   OcclusionOptions occlusion;
+  // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
+  // make_object_discovery and hand it to the manager (the manager itself only validates it).
+  DiscoveryOptions discovery;
   void validate() const;
 };
 
@@ -92,14 +96,17 @@ struct ObjectManagerFrame {
 //      their models by the points they gain (thinned evenly over the whole model when it
 //      would exceed max_model_points);
 //   6. create objects from clusters that no object explains: at the first frame every cluster,
-//      later only clusters persisting for a few frames (non-contact case, after [KLK14]); a new
-//      model is the cluster in a frame at its centroid, axis-aligned with the camera. A new
+//      later only clusters persisting for a few frames (non-contact case, after [KLK14]); with a
+//      discovery (object_discovery.hpp) such a cluster's unexplained points are first split into
+//      their locally convex parts, each an object (touching and stacked objects apart); a new
+//      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
 //      back (its model and object frame are new: the pose jumps once).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
-  explicit ObjectManager(const ObjectManagerOptions& options = {});
+  // discovery: splits born clusters into objects (nullptr: a cluster is one object, the thesis).
+  explicit ObjectManager(const ObjectManagerOptions& options = {}, std::unique_ptr<ObjectDiscovery> discovery = nullptr);
   ObjectManager(const ObjectManager&) = delete;
   ObjectManager& operator=(const ObjectManager&) = delete;
 
@@ -130,12 +137,18 @@ class ObjectManager {
   // The remembered id the histogram matches best, or 0.
   std::int32_t reidentify(const ColorHistogram& histogram) const;
 
-  void create_object(const ColoredCloud& scene, std::span<const int> cluster_points);
+  // The cluster's unexplained points, split by the discovery when there is one, become objects.
+  void create_objects(const ColoredCloud& scene, std::span<const int> cluster_points);
+  void create_object(const ColoredCloud& scene, std::span<const int> points);
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
 
   ObjectManagerOptions options_;
+  std::unique_ptr<ObjectDiscovery> discovery_;
+  std::vector<Eigen::Vector3f> part_positions_;
+  std::vector<Rgb8> part_colors_;
+  std::vector<int> part_of_point_;
   Segmenter segmenter_;
   NewObjectDetector detector_;
   SupportMonitor support_;

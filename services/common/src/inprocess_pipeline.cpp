@@ -14,7 +14,9 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 }  // namespace
 
 InprocessPipeline::InprocessPipeline(const InprocessOptions& options)
-    : options_(options), preprocessor_(options.preprocess), manager_(options.manager) {}
+    : options_(options),
+      preprocessor_(options.preprocess),
+      manager_(options.manager, make_object_discovery(options.manager.discovery)) {}
 
 const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_t seq, const std::string& source_name) {
   const auto t0 = Clock::now();

@@ -28,7 +28,7 @@ void MergerCoreOptions::validate() const {
 
 MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCounter& malformed,
                        std::function<Clock::time_point()> clock)
-    : manager_((options.validate(), options.manager)),
+    : manager_((options.validate(), options.manager), make_object_discovery(options.manager.discovery)),
       workers_(options.workers),
       frames_(options.frames),
       sink_(sink),

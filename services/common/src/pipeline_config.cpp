@@ -120,6 +120,23 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.write_labels = s.get<bool>("write_labels");
   c.fitting_distance = s.get<bool>("fitting_distance");
   c.fps = s.get<float>("fps", 1.f, 1000.f);
+  auto discovery = s.section("discovery");
+  try {
+    c.manager.discovery.method = parse_discovery_method(discovery.get<std::string>("method"));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError("merger.discovery.method: " + std::string(e.what()));
+  }
+  c.manager.discovery.voxel_resolution = discovery.get<float>("voxel_resolution", 1e-4f, 0.1f);
+  c.manager.discovery.seed_resolution = discovery.get<float>("seed_resolution", 1e-4f, 0.5f);
+  c.manager.discovery.color_importance = discovery.get<float>("color_importance", 0.f, 100.f);
+  c.manager.discovery.spatial_importance = discovery.get<float>("spatial_importance", 0.f, 100.f);
+  c.manager.discovery.normal_importance = discovery.get<float>("normal_importance", 0.f, 100.f);
+  c.manager.discovery.concavity_tolerance_deg = discovery.get<float>("concavity_tolerance_deg", 0.1f, 90.f);
+  c.manager.discovery.smoothness_threshold = discovery.get<float>("smoothness_threshold", 0.f, 1.f);
+  c.manager.discovery.extended_convexity = discovery.get<bool>("extended_convexity");
+  c.manager.discovery.sanity_criterion = discovery.get<bool>("sanity_criterion");
+  c.manager.discovery.min_part_points = discovery.get<int>("min_part_points", 1, 100000);
+  discovery.finish();
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
   const auto q = world.get_vector("rotation", 4);

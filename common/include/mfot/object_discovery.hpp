@@ -1,0 +1,65 @@
+#pragma once
+// Object discovery by convexity: where an object is born (the first frame, a cluster no tracked
+// object explains), the cluster is split into the locally convex parts of its surface, so that
+// touching and stacked objects are found apart from the first frame (thesis 3.1 only separates
+// them once they move apart, after [KLK14]). The method is PCL's supervoxels + LCCP (Papon et
+// al. 2013; Stein et al., "Object Partitioning using Local Convexity", CVPR 2014), run in its own
+// library (mfot_discovery) behind this PCL-free interface; the per-frame clustering stays the
+// cheap Euclidean one and discovery runs only at birth.
+
+#include "mfot/types.hpp"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace mfot {
+
+enum class DiscoveryMethod {
+  kClusters,  // a new object is a whole Euclidean cluster (the thesis)
+  kLccp,      // a cluster is split into its locally convex connected parts
+};
+
+// Member defaults: the settings of PCL's example_lccp_segmentation; the services fill every field
+// from configs/default.yaml (merger.discovery).
+struct DiscoveryOptions {
+  DiscoveryMethod method = DiscoveryMethod::kClusters;
+  float voxel_resolution = 0.0075f;   // supervoxel voxel leaf, metres, (0, 0.1]
+  float seed_resolution = 0.03f;      // supervoxel seed spacing, metres, [voxel_resolution, 0.5]
+  float color_importance = 0.0f;      // supervoxel distance weights, each [0, 100]
+  float spatial_importance = 1.0f;
+  float normal_importance = 4.0f;
+  float concavity_tolerance_deg = 10.f;  // a concave edge flatter than this still joins, (0, 90]
+  float smoothness_threshold = 0.1f;  // LCCP's smoothness check (step between supervoxels), [0, 1]; 0 = off
+  bool extended_convexity = false;    // LCCP's k-factor 1: a convex edge needs a common neighbour that agrees
+  bool sanity_criterion = true;       // LCCP's sanity check of singular (edge-on) connections
+  // Parts with fewer points than this are no objects: their points join the neighbouring larger
+  // part they touch (a label on a can, a handle seen edge-on), >= 1.
+  int min_part_points = 150;
+
+  // Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
+DiscoveryMethod parse_discovery_method(const std::string& name);  // "clusters" | "lccp", else throws
+
+// Splits one connected set of scene points into objects.
+class ObjectDiscovery {
+ public:
+  virtual ~ObjectDiscovery() = default;
+  // positions/colors: the points of one cluster, camera frame (finite). part_of_point receives
+  // (resized) each point's part in [0, parts), every point in one part; parts are numbered by
+  // their first point. Returns the number of parts (>= 1 for a non-empty input). Deterministic.
+  virtual int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
+                    std::vector<int>& part_of_point) = 0;
+};
+
+// In mfot_discovery (PCL inside), for options that passed validate(): kClusters gives nullptr
+// (nothing to split), kLccp the supervoxel + LCCP discovery.
+__attribute__((visibility("default"))) std::unique_ptr<ObjectDiscovery> make_object_discovery(
+    const DiscoveryOptions& options);
+
+}  // namespace mfot

@@ -1,0 +1,42 @@
+#include "mfot/object_discovery.hpp"
+
+#include <stdexcept>
+
+namespace mfot {
+namespace {
+
+void require_range(const char* field, float value, float low, float high) {
+  if (!(value >= low && value <= high)) {
+    throw std::invalid_argument(std::string("DiscoveryOptions.") + field + " must be in [" + std::to_string(low) +
+                                ", " + std::to_string(high) + "], got " + std::to_string(value));
+  }
+}
+
+}  // namespace
+
+void DiscoveryOptions::validate() const {
+  if (!(voxel_resolution > 0.f && voxel_resolution <= 0.1f)) {
+    throw std::invalid_argument("DiscoveryOptions.voxel_resolution must be in (0, 0.1] m, got " +
+                                std::to_string(voxel_resolution));
+  }
+  require_range("seed_resolution", seed_resolution, voxel_resolution, 0.5f);
+  require_range("color_importance", color_importance, 0.f, 100.f);
+  require_range("spatial_importance", spatial_importance, 0.f, 100.f);
+  require_range("normal_importance", normal_importance, 0.f, 100.f);
+  if (!(concavity_tolerance_deg > 0.f && concavity_tolerance_deg <= 90.f)) {
+    throw std::invalid_argument("DiscoveryOptions.concavity_tolerance_deg must be in (0, 90], got " +
+                                std::to_string(concavity_tolerance_deg));
+  }
+  require_range("smoothness_threshold", smoothness_threshold, 0.f, 1.f);
+  if (min_part_points < 1) {
+    throw std::invalid_argument("DiscoveryOptions.min_part_points must be >= 1, got " + std::to_string(min_part_points));
+  }
+}
+
+DiscoveryMethod parse_discovery_method(const std::string& name) {
+  if (name == "clusters") return DiscoveryMethod::kClusters;
+  if (name == "lccp") return DiscoveryMethod::kLccp;
+  throw std::invalid_argument("discovery method must be clusters or lccp, got '" + name + "'");
+}
+
+}  // namespace mfot

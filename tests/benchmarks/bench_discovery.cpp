@@ -1,0 +1,121 @@
+// Object discovery on real scenes: every organised PCD file of a folder with a `label` field (mOSD)
+// as one scene, through mfot's preprocessing and first-frame objects (merger.discovery), scored per
+// measured pixel against the file's labels (match_segments: found, WOv, merged, split, spurious),
+// and PCL's LCCP with its example's settings after a RANSAC table fit on the same points.
+// One JSON object per scene and method on stdout; scripts/bench-mosd prints the tables.
+//
+//   mfot_bench_discovery FOLDER [--config FILE] [--background-label-max 9] [--no-pcl]
+
+#include "../../services/capture/pcd/pcd_image.hpp"
+#include "mfot/capture/pcd_source.hpp"
+#include "mfot/metrics.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "pcl_lccp_reference.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+void print(const std::string& scene, const char* method, const mfot::SegmentMatch& m, double ms, double table_ms) {
+  std::printf(
+      "{\"scene\": \"%s\", \"method\": \"%s\", \"segments\": %zu, \"objects\": %zu, \"found\": %zu, \"wov\": %.5f, "
+      "\"merged\": %zu, \"split\": %zu, \"spurious\": %zu, \"ms\": %.3f, \"table_ms\": %.3f}\n",
+      scene.c_str(), method, m.segments, m.objects, m.found, m.weighted_overlap, m.merged, m.split, m.spurious, ms,
+      table_ms);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Object discovery on labelled organised PCD scenes (mfot and PCL's LCCP), JSON lines"};
+  std::string folder, config_path;
+  unsigned background_label_max = 9;
+  bool no_pcl = false;
+  app.add_option("folder", folder, "folder of organised PCD files with a label field")->required();
+  app.add_option("--config", config_path, "config laid over configs/default.yaml");
+  app.add_option("--background-label-max", background_label_max, "labels up to this are background (mOSD: 9)");
+  app.add_flag("--no-pcl", no_pcl, "leave out PCL's LCCP");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const YAML::Node config = config_path.empty() ? mfot::service::merged_over_defaults(YAML::Node())
+                                                  : mfot::service::load_config_file(config_path);
+    const auto preprocess = mfot::service::load_preprocess_config(config);
+    const auto merger = mfot::service::load_merger_config(config);
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+      if (entry.path().extension() == ".pcd") files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end(),
+              [](const auto& a, const auto& b) { return mfot::capture::natural_less(a.string(), b.string()); });
+    if (files.empty()) throw std::runtime_error("no .pcd files in " + folder);
+
+    for (const auto& path : files) {
+      mfot::capture::PcdImage image;
+      std::string error;
+      if (!mfot::capture::read_organised_pcd(path.string(), image, error)) {
+        std::fprintf(stderr, "[bench-discovery] %s: %s (skipped)\n", path.c_str(), error.c_str());
+        continue;
+      }
+      if (image.label.empty()) {
+        std::fprintf(stderr, "[bench-discovery] %s: no label field (skipped)\n", path.c_str());
+        continue;
+      }
+      const std::string scene = path.stem().string();
+      const std::size_t pixels = image.label.size();
+      std::vector<std::int32_t> truth, predicted;
+      std::vector<std::size_t> measured;
+      for (std::size_t i = 0; i < pixels; ++i) {
+        if (!std::isfinite(image.xyz[3 * i + 2])) continue;
+        measured.push_back(i);
+        truth.push_back(image.label[i] > background_label_max ? static_cast<std::int32_t>(image.label[i]) : 0);
+      }
+
+      // mfot: preprocessing, then the first frame's objects (discovery at birth).
+      const mfot::service::Frame frame = mfot::capture::frame_from_organised_cloud(image);
+      mfot::Preprocessor preprocessor(preprocess.preprocessor);
+      const auto t_table = Clock::now();
+      const mfot::SceneCloud& cloud = preprocessor.process(mfot::service::image_view(frame));
+      const double table_ms = ms_since(t_table);
+      mfot::ColoredCloud points;
+      points.positions = cloud.positions;
+      points.colors = cloud.colors;
+      mfot::ObjectManager manager(merger.manager, mfot::make_object_discovery(merger.manager.discovery));
+      const auto t_objects = Clock::now();
+      const auto& result = manager.process(points, cloud.cluster, {});
+      const double objects_ms = ms_since(t_objects);
+      const auto voxel_of_pixel = preprocessor.pixel_voxel_index();
+      predicted.clear();
+      for (const std::size_t i : measured) {
+        const int voxel = voxel_of_pixel[i];
+        predicted.push_back(voxel < 0 ? 0 : result.labels[static_cast<std::size_t>(voxel)]);
+      }
+      print(scene, "mfot", mfot::match_segments(truth, predicted), objects_ms, table_ms);
+
+      if (no_pcl) continue;
+      const auto reference = mfot::bench::pcl_lccp_segments(image.xyz, image.rgb);
+      predicted.clear();
+      for (const std::size_t i : measured) predicted.push_back(reference.labels[i]);
+      print(scene, "pcl-lccp", mfot::match_segments(truth, predicted), reference.segment_ms, reference.table_ms);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "[bench-discovery] %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
