@@ -45,6 +45,9 @@ void PreprocessorOptions::validate() const {
   plane_fit.validate();
   require(std::isfinite(plane_margin) && plane_margin >= 0.f && plane_margin <= 0.5f, "plane_margin",
           "in [0, 0.5] metres");
+  require(std::isfinite(plane_margin_growth) && plane_margin_growth >= 0.f && plane_margin_growth <= 0.1f,
+          "plane_margin_growth", "in [0, 0.1] metres per square metre");
+  require(finite_in(prism_min_share, 0.f, 1.f), "prism_min_share", "in (0, 1]");
   require(finite_in(plane_keep_ratio, 0.f, 1.f), "plane_keep_ratio", "in (0, 1]");
   require(finite_in(voxel_size, 0.f, 1.f), "voxel_size", "in (0, 1] metres");
   require(finite_in(cluster_tolerance, 0.f, 1.f), "cluster_tolerance", "in (0, 1] metres");
@@ -115,6 +118,7 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image) {
   const auto t3 = Clock::now();
 
   cluster_voxels();
+  keep_clusters_on_table();
   const auto t4 = Clock::now();
 
   stats_.backproject_ms = ms_between(t0, t1);
@@ -250,13 +254,14 @@ void Preprocessor::split_points(const TablePlane& plane, std::size_t begin, std:
   const float offset = plane.coefficients[3];
   const float band = options_.plane_fit.inlier_distance;
   const float margin = options_.plane_margin;
+  const float growth = options_.plane_margin_growth;
   std::size_t inliers = 0;
   std::size_t kept = 0;
   for (std::size_t i = begin; i < end; ++i) {
     const Eigen::Vector3f& p = cropped_positions_[i];
     const float distance = normal.dot(p) + offset;
     inliers += std::abs(distance) < band ? 1 : 0;
-    if (distance > margin) {
+    if (distance > margin + growth * p.z() * p.z()) {
       if constexpr (kWrite) {
         above_positions_[first + kept] = p;
         above_colors_[first + kept] = cropped_colors_[i];

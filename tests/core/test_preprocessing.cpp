@@ -94,6 +94,64 @@ TEST(Preprocessor, FindsTablePlaneAndSeparatesBoxes) {
   }
 }
 
+TEST(Preprocessor, TablePrismDropsClustersBesideTheTable) {
+  auto scene = test_scene::two_boxes();
+  scene.table_half_extent = 0.32f;
+  // A post beside the table (a chair, a shelf), rising above the table's height.
+  scene.boxes.push_back(test_scene::Box{{0.40f, -0.05f, -0.6f}, {0.48f, 0.03f, 0.20f}, Rgb8{30, 30, 200}});
+  const Frame frame = test_scene::render(scene, Camera{});
+  PreprocessorOptions options;
+  Preprocessor without(options);
+  const SceneCloud& all = without.process(frame.view());
+  EXPECT_EQ(all.num_clusters, 3);
+  EXPECT_TRUE(without.table_polygon().empty());
+  options.table_prism = true;
+  Preprocessor with(options);
+  const SceneCloud& on_table = with.process(frame.view());
+  ASSERT_EQ(on_table.num_clusters, 2);
+  EXPECT_EQ(with.stats().clusters_off_table, 1);
+  for (std::size_t i = 0; i < on_table.size(); ++i) {
+    const int box = box_of(scene, Camera{}.camera_to_world(on_table.positions[i]), 0.01f);
+    if (box == 2) {
+      EXPECT_EQ(on_table.cluster[i], -1);
+    }
+    EXPECT_LT(on_table.cluster[i], 2);
+  }
+  // The support polygon is the table's visible top: its corners lie within the table.
+  ASSERT_GE(with.table_polygon().size(), 4u);
+  EXPECT_FALSE(inside_convex_polygon(with.table_polygon(),
+                                     with.on_table_plane(Camera{}.world_to_camera({0.44f, 0.f, 0.1f}))));
+  EXPECT_TRUE(inside_convex_polygon(with.table_polygon(),
+                                    with.on_table_plane(Camera{}.world_to_camera({0.f, 0.f, 0.1f}))));
+}
+
+TEST(Preprocessor, PlaneMarginGrowsWithDepth) {
+  test_scene::Scene scene;
+  scene.boxes.push_back(test_scene::Box{{-0.05f, -0.05f, 0.f}, {0.05f, 0.05f, 0.012f}, Rgb8{200, 30, 30}});  // 12 mm tall, ~1 m away
+  const Frame frame = test_scene::render(scene, Camera{});
+  PreprocessorOptions options;
+  Preprocessor fixed(options);
+  EXPECT_GT(fixed.process(frame.view()).size(), 100u);  // 1 cm margin: its top survives
+  options.plane_margin_growth = 0.004f;                  // + 4 mm at 1 m
+  Preprocessor growing(options);
+  EXPECT_EQ(growing.process(frame.view()).size(), 0u);
+}
+
+TEST(ConvexHull, CounterClockwiseCornersAndInsideTest) {
+  std::vector<Eigen::Vector2f> points{{0, 0}, {2, 0}, {2, 2}, {0, 2}, {1, 1}, {1, 0}, {0.5f, 1.5f}};
+  const auto hull = convex_hull(points);
+  ASSERT_EQ(hull.size(), 4u);  // the collinear (1, 0) and inner points are no corners
+  EXPECT_EQ(hull[0], Eigen::Vector2f(0, 0));
+  EXPECT_EQ(hull[1], Eigen::Vector2f(2, 0));
+  EXPECT_EQ(hull[2], Eigen::Vector2f(2, 2));
+  EXPECT_EQ(hull[3], Eigen::Vector2f(0, 2));
+  EXPECT_TRUE(inside_convex_polygon(hull, {1.f, 1.f}));
+  EXPECT_TRUE(inside_convex_polygon(hull, {2.f, 1.f}));  // on an edge
+  EXPECT_FALSE(inside_convex_polygon(hull, {2.1f, 1.f}));
+  EXPECT_FALSE(inside_convex_polygon(std::span<const Eigen::Vector2f>(hull.data(), 2), {1.f, 0.f}));
+  EXPECT_EQ(convex_hull({{1, 1}, {1, 1}}).size(), 1u);
+}
+
 TEST(Preprocessor, VoxelsAreSparserThanLeafAndPixelsMapBack) {
   const auto scene = test_scene::two_boxes();
   const Camera camera;

@@ -13,7 +13,14 @@
 //      per voxel (the first in raster order), voxels ordered by that pixel;
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
 //      within size limits, numbered by their first voxel (EuclideanClusterer's result, computed
-//      by a grid union-find, about 5x faster on 5 mm voxels).
+//      by a grid union-find, about 5x faster on 5 mm voxels);
+//   6. table prism (as PCL's ExtractPolygonalPrismData, own code because it runs per frame on the
+//      core's types): the convex hull of the plane's inliers (an even-stride sample; their largest
+//      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
+//      polygon; a cluster with less than prism_min_share of its voxels above
+//      it (a wall, shelves or people beside the table) is no cluster (-1): it never becomes an
+//      object. The margin of step 3 grows with depth as the sensor's noise does (Nguyen et al.
+//      2012: sigma_z ~ z^2): plane_margin + plane_margin_growth z^2.
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
 // With threads > 1, steps 1-2, the plane split of step 3, the voxel keys of step 4 and the cell
 // keys and neighbour tests of step 5 run on a ThreadPool: rows, points and cells are split into
@@ -173,6 +180,9 @@ struct PreprocessorOptions {
   bool remove_plane = true;
   PlaneFitOptions plane_fit;
   float plane_margin = 0.01f;        // keep points with signed distance > margin, metres, in [0, 0.5]
+  float plane_margin_growth = 0.f;   // ... + this x depth^2 (metres per square metre), in [0, 0.1]
+  bool table_prism = false;          // clusters must stand on the table's support polygon (step 6)
+  float prism_min_share = 0.25f;     // least share of a cluster's voxels above the polygon, in (0, 1]
   // The kept plane is refitted when its inlier share falls below this fraction of the share it
   // had when fitted (the camera or the table moved), in (0, 1].
   float plane_keep_ratio = 0.7f;
@@ -190,12 +200,19 @@ struct PreprocessorOptions {
   void validate() const;
 };
 
+// 2D convex hull (Andrew's monotone chain): counter-clockwise, without collinear points; fewer
+// than three distinct points give those points.
+std::vector<Eigen::Vector2f> convex_hull(std::vector<Eigen::Vector2f> points);
+// p inside or on the counter-clockwise convex polygon (at least three vertices).
+bool inside_convex_polygon(std::span<const Eigen::Vector2f> hull, const Eigen::Vector2f& p);
+
 // Per-frame statistics and stage timings (steady clock, milliseconds).
 struct PreprocessStats {
   std::size_t valid_depth = 0;    // pixels with depth
   std::size_t cropped = 0;        // points inside the crop box
   std::size_t above_plane = 0;    // points surviving table removal
   std::size_t voxels = 0;
+  int clusters_off_table = 0;     // clusters dropped by the table prism (step 6)
   float plane_inlier_share = 0.f; // of the cropped points, for the plane used
   bool plane_refitted = false;    // a RANSAC fit ran this frame
   double backproject_ms = 0.0;    // steps 1 and 2
@@ -233,6 +250,10 @@ class Preprocessor {
   int voxel_index_at(int u, int v) const;
   // The same for all pixels, row-major width x height of the last frame.
   std::span<const int> pixel_voxel_index() const { return pixel_voxel_; }
+  // The table's support polygon of the last frame in the plane's coordinates (table_prism; empty
+  // without a plane), and the point p's coordinates there.
+  std::span<const Eigen::Vector2f> table_polygon() const { return table_hull_; }
+  Eigen::Vector2f on_table_plane(const Eigen::Vector3f& p) const;
 
  private:
   void backproject_and_crop(const RgbdImageView& image);
@@ -258,6 +279,7 @@ class Preprocessor {
   // of cropped points within the inlier band.
   float split_by_plane(const TablePlane& plane);
   void cluster_voxels();
+  void keep_clusters_on_table();  // step 6
   int find_cluster_cell(const Eigen::Vector3i& cell) const;
 
   PreprocessorOptions options_;
@@ -298,6 +320,15 @@ class Preprocessor {
   bool kept_all_cropped_ = false;  // no plane removed: the cropped buffers are the kept points
 
   std::vector<int> pixel_voxel_;
+
+  // Table prism scratch (step 6): plane basis, hull, per-cluster tallies.
+  Eigen::Vector3f table_axis_u_ = Eigen::Vector3f::UnitX();
+  Eigen::Vector3f table_axis_v_ = Eigen::Vector3f::UnitY();
+  std::vector<Eigen::Vector2f> table_samples_;
+  std::vector<Eigen::Vector2f> table_hull_;
+  std::vector<int> cluster_inside_;
+  std::vector<int> cluster_total_;
+  std::vector<int> cluster_renumber_;
 
   // Clustering scratch (preprocess_cluster.cpp).
   std::vector<std::uint64_t> cell_slot_keys_;

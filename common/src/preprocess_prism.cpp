@@ -1,0 +1,155 @@
+// Step 6 of Preprocessor::process: the table prism (see preprocessing.hpp).
+#include "mfot/preprocessing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace mfot {
+namespace {
+
+// Inliers the support polygon is built from: an even-stride sample of the cropped points.
+constexpr std::size_t kTableSamples = 4096;
+// The table is the largest 8-connected region of inlier samples on a grid of this cell (metres):
+// where a wall or a post crosses the plane's height its points are inliers too, but apart.
+constexpr float kTableCell = 0.02f;
+
+// Keeps the samples of the largest 8-connected region of occupied kTableCell cells.
+void keep_largest_region(std::vector<Eigen::Vector2f>& samples) {
+  std::unordered_map<std::uint64_t, int> cell_of_key;
+  std::vector<std::uint64_t> keys;
+  std::vector<int> cell_of_sample(samples.size());
+  std::vector<int> count;
+  const auto key = [](long x, long y) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(x)) << 32) | static_cast<std::uint32_t>(y);
+  };
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const long x = std::lround(std::floor(samples[i].x() / kTableCell));
+    const long y = std::lround(std::floor(samples[i].y() / kTableCell));
+    const auto [it, inserted] = cell_of_key.try_emplace(key(x, y), static_cast<int>(keys.size()));
+    if (inserted) {
+      keys.push_back(key(x, y));
+      count.push_back(0);
+    }
+    cell_of_sample[i] = it->second;
+    ++count[static_cast<std::size_t>(it->second)];
+  }
+  std::vector<int> region(keys.size(), -1);
+  std::vector<int> region_count;
+  std::vector<int> stack;
+  for (std::size_t start = 0; start < keys.size(); ++start) {
+    if (region[start] >= 0) continue;
+    const int r = static_cast<int>(region_count.size());
+    region_count.push_back(0);
+    region[start] = r;
+    stack.assign(1, static_cast<int>(start));
+    while (!stack.empty()) {
+      const auto cell = static_cast<std::size_t>(stack.back());
+      stack.pop_back();
+      region_count[static_cast<std::size_t>(r)] += count[cell];
+      const auto x = static_cast<std::int32_t>(keys[cell] >> 32);
+      const auto y = static_cast<std::int32_t>(keys[cell] & 0xffffffffu);
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          const auto it = cell_of_key.find(key(x + dx, y + dy));
+          if (it == cell_of_key.end() || region[static_cast<std::size_t>(it->second)] >= 0) continue;
+          region[static_cast<std::size_t>(it->second)] = r;
+          stack.push_back(it->second);
+        }
+      }
+    }
+  }
+  if (region_count.size() <= 1) return;
+  const auto largest = static_cast<int>(std::max_element(region_count.begin(), region_count.end()) - region_count.begin());
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (region[static_cast<std::size_t>(cell_of_sample[i])] == largest) samples[kept++] = samples[i];
+  }
+  samples.resize(kept);
+}
+
+float cross(const Eigen::Vector2f& o, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector2f> convex_hull(std::vector<Eigen::Vector2f> points) {
+  std::sort(points.begin(), points.end(), [](const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  points.erase(std::unique(points.begin(), points.end()), points.end());
+  if (points.size() < 3) return points;
+  std::vector<Eigen::Vector2f> hull(2 * points.size());
+  std::size_t k = 0;
+  for (const Eigen::Vector2f& p : points) {  // lower hull
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p) <= 0.f) --k;
+    hull[k++] = p;
+  }
+  const std::size_t lower = k + 1;
+  for (auto it = points.rbegin() + 1; it != points.rend(); ++it) {  // upper hull
+    while (k >= lower && cross(hull[k - 2], hull[k - 1], *it) <= 0.f) --k;
+    hull[k++] = *it;
+  }
+  hull.resize(k - 1);  // the last point is the first
+  return hull;
+}
+
+bool inside_convex_polygon(std::span<const Eigen::Vector2f> hull, const Eigen::Vector2f& p) {
+  if (hull.size() < 3) return false;
+  for (std::size_t i = 0; i < hull.size(); ++i) {
+    if (cross(hull[i], hull[(i + 1) % hull.size()], p) < 0.f) return false;
+  }
+  return true;
+}
+
+Eigen::Vector2f Preprocessor::on_table_plane(const Eigen::Vector3f& p) const {
+  return {table_axis_u_.dot(p), table_axis_v_.dot(p)};
+}
+
+void Preprocessor::keep_clusters_on_table() {
+  table_hull_.clear();
+  if (!options_.table_prism || !plane_.valid || kept_all_cropped_ || scene_.num_clusters == 0) return;
+  // The plane's own basis: any unit vector orthogonal to the normal, and the normal x that.
+  const Eigen::Vector3f normal = plane_.coefficients.head<3>();
+  table_axis_u_ = normal.unitOrthogonal();
+  table_axis_v_ = normal.cross(table_axis_u_);
+  const float band = options_.plane_fit.inlier_distance;
+  table_samples_.clear();
+  const std::size_t stride = std::max<std::size_t>(1, cropped_count_ / kTableSamples);
+  for (std::size_t i = 0; i < cropped_count_; i += stride) {
+    const Eigen::Vector3f& p = cropped_positions_[i];
+    if (std::abs(plane_.signed_distance(p)) < band) table_samples_.push_back(on_table_plane(p));
+  }
+  keep_largest_region(table_samples_);
+  table_hull_ = convex_hull(table_samples_);
+  if (table_hull_.size() < 3) return;
+
+  const auto clusters = static_cast<std::size_t>(scene_.num_clusters);
+  cluster_inside_.assign(clusters, 0);
+  cluster_total_.assign(clusters, 0);
+  for (std::size_t k = 0; k < scene_.size(); ++k) {
+    const int c = scene_.cluster[k];
+    if (c < 0) continue;
+    ++cluster_total_[static_cast<std::size_t>(c)];
+    if (inside_convex_polygon(table_hull_, on_table_plane(scene_.positions[k]))) {
+      ++cluster_inside_[static_cast<std::size_t>(c)];
+    }
+  }
+  // Clusters keep their order (numbered by their first voxel) without the dropped ones.
+  cluster_renumber_.assign(clusters, -1);
+  int kept = 0;
+  for (std::size_t c = 0; c < clusters; ++c) {
+    if (static_cast<float>(cluster_inside_[c]) >= options_.prism_min_share * static_cast<float>(cluster_total_[c])) {
+      cluster_renumber_[c] = kept++;
+    }
+  }
+  stats_.clusters_off_table = scene_.num_clusters - kept;
+  for (int& c : scene_.cluster) {
+    if (c >= 0) c = cluster_renumber_[static_cast<std::size_t>(c)];
+  }
+  scene_.num_clusters = kept;
+}
+
+}  // namespace mfot
