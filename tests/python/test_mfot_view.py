@@ -6,10 +6,12 @@ generated LCM types, judged by pixel content, and the command on a log written w
 from __future__ import annotations
 
 import os
+import random
 import shutil
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
 from pathlib import Path
 
@@ -216,6 +218,40 @@ class CommandTest(unittest.TestCase):
                                 "stream=codec_name,width,height,nb_read_frames", "-of", "csv=p=0", str(video)],
                                capture_output=True, text=True, timeout=60)
         self.assertEqual(probe.stdout.strip(), f"h264,{vs.WIDTH},{vs.HEIGHT},5")
+
+    def test_live_png(self):
+        url = f"udpm://239.255.76.67:{random.randint(20000, 60000)}?ttl=0"
+        out = self.tmp / "live"
+        viewer = subprocess.Popen([sys.executable, str(VIEW), "--png", out, "--count", "3", "--wait-s", "60"],
+                                  env=dict(self.env, MFOT_LCM_URL=url, PYTHONUNBUFFERED="1"),
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.addCleanup(lambda: viewer.poll() is None and (viewer.kill(), viewer.wait()))
+        first = viewer.stdout.readline()  # once it is subscribed
+        self.assertIn("listening on", first)
+        self.assertIn(url.split("//")[1].split("?")[0], first)
+        bus = mfot_lcm.Lcm(url)
+        self.addCleanup(bus.close)
+        deadline = time.monotonic() + 60
+        seq = 0
+        # One frame's messages at a time, in the group's order, until the viewer has drawn three and ends.
+        while viewer.poll() is None and time.monotonic() < deadline:
+            bus.publish("MFOT_FRAME", vs.make_frame(self.types, seq, "png").encode())
+            bus.publish("MFOT_SCENE", vs.make_scene(self.types, seq).encode())
+            bus.publish("MFOT_POSES", vs.make_poses(self.types, seq).encode())
+            bus.publish("MFOT_SEGMENTATION", vs.make_segmentation(self.types, seq).encode())
+            seq += 1
+            try:
+                viewer.wait(0.5)
+            except subprocess.TimeoutExpired:
+                pass
+        said = viewer.stdout.read()
+        viewer.stdout.close()
+        self.assertEqual(viewer.returncode, 0, said)
+        pngs = sorted(out.glob("frame_*.png"))
+        self.assertEqual(len(pngs), 3, said)
+        for path in pngs:
+            with Image.open(path) as image:
+                check_drawing(self, image.convert("RGB"), seq=int(path.stem.split("_")[1]))
 
     def test_clear_errors(self):
         cases = []
