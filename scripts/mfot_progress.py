@@ -138,7 +138,7 @@ class Progress:
         elif self.backend == "lines":
             now = self.clock()
             due = self.last_line is None or now - self.last_line >= self.interval_s
-            if step or due or completed >= self.total:
+            if step or due or (completed >= self.total and delta > 0):
                 self._line(now)
 
     def line_text(self) -> str:
