@@ -45,8 +45,10 @@ void PreprocessorOptions::validate() const {
   plane_fit.validate();
   require(std::isfinite(plane_margin) && plane_margin >= 0.f && plane_margin <= 0.5f, "plane_margin",
           "in [0, 0.5] metres");
-  require(std::isfinite(plane_margin_growth) && plane_margin_growth >= 0.f && plane_margin_growth <= 0.1f,
-          "plane_margin_growth", "in [0, 0.1] metres per square metre");
+  require(std::isfinite(plane_margin_sigmas) && plane_margin_sigmas >= 0.f && plane_margin_sigmas <= 10.f,
+          "plane_margin_sigmas", "in [0, 10]");
+  require(depth_sigma.allFinite() && (depth_sigma.array() >= 0.f).all() && (depth_sigma.array() <= 1.f).all(),
+          "depth_sigma", "base, quadratic and reference each in [0, 1]");
   require(finite_in(prism_min_share, 0.f, 1.f), "prism_min_share", "in (0, 1]");
   require(finite_in(plane_keep_ratio, 0.f, 1.f), "plane_keep_ratio", "in (0, 1]");
   require(finite_in(voxel_size, 0.f, 1.f), "voxel_size", "in (0, 1] metres");
@@ -254,14 +256,17 @@ void Preprocessor::split_points(const TablePlane& plane, std::size_t begin, std:
   const float offset = plane.coefficients[3];
   const float band = options_.plane_fit.inlier_distance;
   const float margin = options_.plane_margin;
-  const float growth = options_.plane_margin_growth;
+  const float sigmas = options_.plane_margin_sigmas;
+  const Eigen::Vector3f& noise = options_.depth_sigma;
   std::size_t inliers = 0;
   std::size_t kept = 0;
   for (std::size_t i = begin; i < end; ++i) {
     const Eigen::Vector3f& p = cropped_positions_[i];
     const float distance = normal.dot(p) + offset;
     inliers += std::abs(distance) < band ? 1 : 0;
-    if (distance > margin + growth * p.z() * p.z()) {
+    const float from_reference = p.z() - noise[2];
+    const float noise_margin = sigmas * (noise[0] + noise[1] * from_reference * from_reference);
+    if (distance > std::max(margin, noise_margin)) {
       if constexpr (kWrite) {
         above_positions_[first + kept] = p;
         above_colors_[first + kept] = cropped_colors_[i];

@@ -127,14 +127,19 @@ TEST(Preprocessor, TablePrismDropsClustersBesideTheTable) {
 
 TEST(Preprocessor, PlaneMarginGrowsWithDepth) {
   test_scene::Scene scene;
-  scene.boxes.push_back(test_scene::Box{{-0.05f, -0.05f, 0.f}, {0.05f, 0.05f, 0.012f}, Rgb8{200, 30, 30}});  // 12 mm tall, ~1 m away
-  const Frame frame = test_scene::render(scene, Camera{});
+  scene.boxes.push_back(test_scene::Box{{-0.05f, -0.05f, 0.f}, {0.05f, 0.05f, 0.015f}, Rgb8{200, 30, 30}});  // 15 mm tall
+  Camera far;  // about 1.9 m from the box
+  far.eye = {0.f, -1.3f, 1.4f};
+  const Frame frame = test_scene::render(scene, far);
   PreprocessorOptions options;
   Preprocessor fixed(options);
-  EXPECT_GT(fixed.process(frame.view()).size(), 100u);  // 1 cm margin: its top survives
-  options.plane_margin_growth = 0.004f;                  // + 4 mm at 1 m
+  EXPECT_GT(fixed.process(frame.view()).size(), 20u);  // 1 cm margin: its top survives
+  options.plane_margin_sigmas = 3.f;                    // 3 sigma at 1.9 m: 1.6 cm
   Preprocessor growing(options);
   EXPECT_EQ(growing.process(frame.view()).size(), 0u);
+  const Frame near = test_scene::render(scene, Camera{});  // about 1 m: 3 sigma = 5.6 mm, the 1 cm margin holds
+  Preprocessor fixed_near(PreprocessorOptions{}), growing_near(options);
+  EXPECT_EQ(growing_near.process(near.view()).size(), fixed_near.process(near.view()).size());
 }
 
 TEST(ConvexHull, CounterClockwiseCornersAndInsideTest) {

@@ -19,8 +19,9 @@
 //      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
 //      polygon; a cluster with less than prism_min_share of its voxels above
 //      it (a wall, shelves or people beside the table) is no cluster (-1): it never becomes an
-//      object. The margin of step 3 grows with depth as the sensor's noise does (Nguyen et al.
-//      2012: sigma_z ~ z^2): plane_margin + plane_margin_growth z^2.
+//      object. The margin of step 3 grows with depth as the sensor's noise does: at least
+//      plane_margin_sigmas x sigma(z), sigma(z) = base + quadratic (z - reference)^2 (Nguyen, Izadi,
+//      Lovell 2012, Kinect v1), so a far table's noise does not become objects.
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
 // With threads > 1, steps 1-2, the plane split of step 3, the voxel keys of step 4 and the cell
 // keys and neighbour tests of step 5 run on a ThreadPool: rows, points and cells are split into
@@ -180,7 +181,8 @@ struct PreprocessorOptions {
   bool remove_plane = true;
   PlaneFitOptions plane_fit;
   float plane_margin = 0.01f;        // keep points with signed distance > margin, metres, in [0, 0.5]
-  float plane_margin_growth = 0.f;   // ... + this x depth^2 (metres per square metre), in [0, 0.1]
+  float plane_margin_sigmas = 0.f;   // ... or this many depth-noise sigmas if more, in [0, 10]; 0 = fixed margin
+  Eigen::Vector3f depth_sigma{0.0012f, 0.0019f, 0.4f};  // base m, quadratic m/m^2, reference m; each in [0, 1]
   bool table_prism = false;          // clusters must stand on the table's support polygon (step 6)
   float prism_min_share = 0.25f;     // least share of a cluster's voxels above the polygon, in (0, 1]
   // The kept plane is refitted when its inlier share falls below this fraction of the share it

@@ -36,7 +36,9 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", 1e-3f, 1.f);
   o.plane_fit.seed = s.get<std::uint64_t>("seed");
   o.plane_margin = s.get<float>("plane_margin", 0.f, 0.5f);
-  o.plane_margin_growth = s.get<float>("plane_margin_growth", 0.f, 0.1f);
+  o.plane_margin_sigmas = s.get<float>("plane_margin_sigmas", 0.f, 10.f);
+  const auto sigma = s.get_vector("depth_sigma", 3);
+  o.depth_sigma = Eigen::Vector3f(static_cast<float>(sigma[0]), static_cast<float>(sigma[1]), static_cast<float>(sigma[2]));
   o.table_prism = s.get<bool>("table_prism");
   o.prism_min_share = s.get<float>("prism_min_share", 0.001f, 1.f);
   o.plane_keep_ratio = s.get<float>("plane_keep_ratio", 1e-3f, 1.f);
