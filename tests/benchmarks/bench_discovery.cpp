@@ -39,6 +39,33 @@ void print(const std::string& scene, const char* method, const mfot::SegmentMatc
   std::fflush(stdout);
 }
 
+// Colour | labels | labels as one binary PPM; a label's colour is a hash of it, 0 is black.
+void write_side_by_side(const std::string& path, const mfot::capture::PcdImage& image,
+                        const std::vector<std::int32_t>& truth, const std::vector<std::int32_t>& predicted) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) throw std::runtime_error("cannot write " + path);
+  std::fprintf(f, "P6\n%d %d\n255\n", 3 * image.width, image.height);
+  const auto label_color = [](std::int32_t label, unsigned char* rgb) {
+    const auto h = static_cast<std::uint32_t>(label) * 2654435761u;
+    for (int c = 0; c < 3; ++c) rgb[c] = label == 0 ? 0 : static_cast<unsigned char>(64 + ((h >> (8 * c)) & 0xbf));
+  };
+  for (int v = 0; v < image.height; ++v) {
+    for (int panel = 0; panel < 3; ++panel) {
+      for (int u = 0; u < image.width; ++u) {
+        const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(u);
+        unsigned char rgb[3];
+        if (panel == 0) {
+          for (int c = 0; c < 3; ++c) rgb[c] = image.rgb[3 * i + static_cast<std::size_t>(c)];
+        } else {
+          label_color(panel == 1 ? truth[i] : predicted[i], rgb);
+        }
+        std::fwrite(rgb, 1, 3, f);
+      }
+    }
+  }
+  std::fclose(f);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -46,10 +73,12 @@ int main(int argc, char** argv) {
   std::string folder, config_path;
   unsigned background_label_max = 9;
   bool no_pcl = false;
+  std::string dump;
   app.add_option("folder", folder, "folder of organised PCD files with a label field")->required();
   app.add_option("--config", config_path, "config laid over configs/default.yaml");
   app.add_option("--background-label-max", background_label_max, "labels up to this are background (mOSD: 9)");
   app.add_flag("--no-pcl", no_pcl, "leave out PCL's LCCP");
+  app.add_option("--dump", dump, "write SCENE.ppm here: colour | ground truth | mfot's objects, side by side");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -106,6 +135,14 @@ int main(int argc, char** argv) {
         predicted.push_back(voxel < 0 ? 0 : result.labels[static_cast<std::size_t>(voxel)]);
       }
       print(scene, "mfot", mfot::match_segments(truth, predicted), objects_ms, table_ms);
+      if (!dump.empty()) {
+        std::vector<std::int32_t> truth_image(pixels, 0), predicted_image(pixels, 0);
+        for (std::size_t k = 0; k < measured.size(); ++k) {
+          truth_image[measured[k]] = truth[k];
+          predicted_image[measured[k]] = predicted[k];
+        }
+        write_side_by_side(dump + "/" + scene + ".ppm", image, truth_image, predicted_image);
+      }
 
       if (no_pcl) continue;
       const auto reference = mfot::bench::pcl_lccp_segments(image.xyz, image.rgb);

@@ -2,7 +2,7 @@
 //
 // Layout conventions: world z = 0 is the table top, objects stand upright on it (centre height =
 // half height) or on each other, and every pair of objects present at frame 0 is at least 4 cm
-// apart. Hands wait outside the image at frame 0, reach in, grasp from above (palm on the top
+// apart, except in `apart`, whose objects start stacked and touching. Hands wait outside the image at frame 0, reach in, grasp from above (palm on the top
 // face, fingers over a side face) and carry objects rigidly. Contacts are exact to 0.5 mm
 // (touching, never overlapping).
 
@@ -411,13 +411,44 @@ World make_world() {
   return world;
 }
 
+// Objects that start stacked and touching (one cluster each pair at frame 0: only discovery by
+// convexity finds them apart) and are separated later by a hand: the top box is lifted off the
+// one below and put down elsewhere, then a box is taken away from the taller one it touches.
+Script apart_scenario() {
+  ScriptBuilder b;
+  Bodies s;
+  const float gap = 0.0005f;
+  const Eigen::Vector3f base_size(0.16f, 0.12f, 0.07f), top_size(0.07f, 0.06f, 0.09f);
+  s.add(b, make_box(2, base_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::stripes, kWhite, 0.04f),
+        at(0.12f, 0.06f, 0.5f * base_size.z()));
+  const int top = s.add(b, make_box(1, top_size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}),
+                        at(0.12f, 0.06f, base_size.z() + gap + 0.5f * top_size.z()));
+  const Eigen::Vector3f tall_size(0.08f, 0.08f, 0.11f), low_size(0.08f, 0.07f, 0.06f);
+  s.add(b, make_box(3, tall_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
+        at(-0.22f, 0.12f, 0.5f * tall_size.z()));
+  // Touching the tall box's right face, set back 5 mm so the front faces are not flush.
+  const int low = s.add(b, make_box(4, low_size, {kCyan, kOrange, kMagenta, kLime, kPurple, kPink}),
+                        at(-0.22f + 0.5f * tall_size.x() + gap + 0.5f * low_size.x(), 0.125f, 0.5f * low_size.z()));
+  const Iso home = at(-0.75f, 0.05f, 0.35f);
+  const int hand = s.add(b, make_hand(101), home);
+
+  b.wait(1.5);
+  pick_and_place(b, s.infos, hand, top, 0.0f, at(0.02f, -0.10f, 0.5f * top_size.z(), -15.0f * kPi / 180.0f), 0.06f);
+  b.move({{hand, home}});
+  b.wait(1.0);
+  pick_and_place(b, s.infos, hand, low, 0.0f, at(-0.14f, 0.34f, 0.5f * low_size.z(), 25.0f * kPi / 180.0f), 0.06f);
+  b.move({{hand, home}});
+  return b.finish(0.8);
+}
+
 Script build_scenario(const ScenarioOptions& options, int attempt) {
+  if (options.name == "apart") return apart_scenario();
   if (options.name == "stack") return stack_scenario();
   if (options.name == "contact") return contact_scenario();
   if (options.name == "rotate") return rotate_scenario();
   if (options.name == "static") return static_scenario();
   if (options.name == "random") return random_scenario(options, attempt);
-  throw std::invalid_argument("ScenarioOptions.name must be one of stack, contact, rotate, static, random");
+  throw std::invalid_argument("ScenarioOptions.name must be one of stack, contact, rotate, apart, static, random");
 }
 
 }  // namespace mfot::sim::detail

@@ -26,7 +26,7 @@
 namespace mfot::sim {
 
 struct ScenarioOptions {
-  // One of scenario_names(): "stack", "contact", "rotate", "static", "random".
+  // One of scenario_names(): "stack", "contact", "rotate", "apart", "static", "random".
   std::string name = "stack";
   std::uint64_t seed = 1;  // sensor noise (all scenarios) and the random scenario's layout
   int num_frames = 0;      // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
