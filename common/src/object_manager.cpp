@@ -5,11 +5,30 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 #include <string>
 
 namespace mfot {
+
+void JoinSplitOptions::validate() const {
+  const auto in = [](const char* field, double value, double low, double high, bool low_open) {
+    if (!(std::isfinite(value) && (low_open ? value > low : value >= low) && value <= high)) {
+      throw std::invalid_argument(std::string("JoinSplitOptions.") + field + " must be in " + (low_open ? "(" : "[") +
+                                  std::to_string(low) + ", " + std::to_string(high) + "], got " + std::to_string(value));
+    }
+  };
+  in("join_frames", join_frames, 0, 10000, false);
+  in("join_translation", join_translation, 0, 0.1, true);
+  in("join_rotation_deg", join_rotation_deg, 0, 45, true);
+  in("join_min_motion", join_min_motion, 0, 1, true);
+  in("join_min_turn_deg", join_min_turn_deg, 0, 180, true);
+  in("join_contact_distance", join_contact_distance, 0, 0.1, true);
+  in("split_frames", split_frames, 0, 10000, false);
+  in("split_min_share", split_min_share, 0, 0.5, true);
+  in("split_max_occluded", split_max_occluded, 0, 1, false);
+}
 
 void ObjectManagerOptions::validate() const {
   segmentation.validate();
@@ -33,6 +52,7 @@ void ObjectManagerOptions::validate() const {
   }
   occlusion.validate();
   discovery.validate();
+  join_split.validate();
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -109,12 +129,12 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
 
   // 4. retire objects without support, unless hidden
   hidden_.assign(segmentation_.object_ids.size(), 0);
-  bool occlusion_scene_set = false;
+  occlusion_scene_set_ = false;
   for (std::size_t k = 0; k < segmentation_.object_ids.size(); ++k) {
     if (options_.hidden_occluded_share <= 0.f || segmentation_.counts[k] >= options_.support.min_points) continue;
-    if (!occlusion_scene_set) {
+    if (!occlusion_scene_set_) {
       occlusion_.set_scene(scene.positions);
-      occlusion_scene_set = true;
+      occlusion_scene_set_ = true;
     }
     const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
     hidden_[k] = occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
@@ -125,9 +145,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       const ManagedObject& object = objects_.at(id);
       retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id)};
     }
-    objects_.erase(id);
-    updaters_.erase(id);
-    first_seen_.erase(id);
+    forget(id);
   }
   std::erase_if(retired_, [&](const auto& entry) {
     return frames_ - entry.second.retired_frame >= options_.reidentify_frames;
@@ -159,6 +177,11 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
     for (const int c : confirmed_) create_objects(scene, clusters_.cluster(static_cast<std::size_t>(c)));
   }
+  // 7. join parts that move as one, split objects whose parts moved apart
+  frame_.joined.clear();
+  frame_.split.clear();
+  if (options_.join_split.join_frames > 0) join_rigid_parts();
+  if (options_.join_split.split_frames > 0) split_separated_parts(scene, cluster_of_point);
   std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
   ++frames_;
   return frame_;
@@ -305,6 +328,7 @@ void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const in
     if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
   }
   if (free_points.size() < options_.min_object_points) return;
+  current_birth_ = next_birth_++;  // the objects of this cluster are siblings
   if (!discovery_ || free_points.size() < 2 * options_.min_object_points) {
     create_object(scene, free_points);
     return;
@@ -358,8 +382,147 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   update.seed = options_.model_update.seed + static_cast<std::uint64_t>(object.id);
   updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
   first_seen_[object.id] = histogram;
+  birth_[object.id] = current_birth_;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
+}
+
+void ObjectManager::forget(std::int32_t id) {
+  objects_.erase(id);
+  updaters_.erase(id);
+  first_seen_.erase(id);
+  birth_.erase(id);
+  split_streak_.erase(id);
+  std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
+}
+
+void ObjectManager::join_rigid_parts() {
+  const JoinSplitOptions& o = options_.join_split;
+  const float max_angle = o.join_rotation_deg * std::numbers::pi_v<float> / 180.f;
+  const float min_turn = o.join_min_turn_deg * std::numbers::pi_v<float> / 180.f;
+  std::vector<std::pair<std::int32_t, std::int32_t>> joins;
+  for (auto a = objects_.begin(); a != objects_.end(); ++a) {
+    for (auto b = std::next(a); b != objects_.end(); ++b) {
+      const ManagedObject& first = a->second;
+      const ManagedObject& second = b->second;
+      if (birth_.at(first.id) != birth_.at(second.id) || first.stale || second.stale) continue;
+      const Eigen::Isometry3f relative = first.pose.isometry().inverse() * second.pose.isometry();
+      PairWatch& watch = pairs_[{first.id, second.id}];
+      const Eigen::Quaternionf turn(watch.relative.linear().transpose() * relative.linear());
+      const bool kept = watch.frames > 0 &&
+                        (relative.translation() - watch.relative.translation()).norm() <= o.join_translation &&
+                        Eigen::AngleAxisf(turn).angle() <= max_angle;
+      if (!kept) {
+        watch = {relative, first.pose, 1};
+        continue;
+      }
+      if (++watch.frames < o.join_frames) continue;
+      const bool moved = (first.pose.translation - watch.start.translation).norm() >= o.join_min_motion ||
+                         first.pose.rotation.angularDistance(watch.start.rotation) >= min_turn;
+      if (moved && models_touch(first, second, o.join_contact_distance)) joins.emplace_back(first.id, second.id);
+    }
+  }
+  for (const auto& [kept, joined] : joins) {
+    if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
+  }
+}
+
+bool ObjectManager::models_touch(const ManagedObject& a, const ManagedObject& b, float distance) {
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(a.model.cloud.size());
+  const Eigen::Isometry3f a_pose = a.pose.isometry();
+  for (const Eigen::Vector3f& p : a.model.cloud.positions) points.push_back(a_pose * p);
+  contact_hash_ = SpatialHash(distance);
+  contact_hash_.build(points);
+  const Eigen::Isometry3f b_pose = b.pose.isometry();
+  for (const Eigen::Vector3f& p : b.model.cloud.positions) {
+    if (contact_hash_.nearest(b_pose * p, distance) >= 0) return true;
+  }
+  return false;
+}
+
+void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
+  ManagedObject& kept = objects_.at(kept_id);
+  const ManagedObject& joined = objects_.at(joined_id);
+  const Eigen::Isometry3f kept_from_joined = kept.pose.isometry().inverse() * joined.pose.isometry();
+  ObjectModel whole = kept.model;
+  for (std::size_t i = 0; i < joined.model.cloud.size(); ++i) {
+    whole.cloud.push_back(kept_from_joined * joined.model.cloud.positions[i], joined.model.cloud.colors[i]);
+  }
+  // SMR features depend on colour only: the joined part's stay valid in the kept frame.
+  whole.features.insert(whole.features.end(), joined.model.features.begin(), joined.model.features.end());
+  const std::vector<std::uint32_t> keep = even_subset(whole.cloud, options_.max_model_points);
+  kept.model.cloud.clear();
+  kept.model.features.clear();
+  for (const std::uint32_t k : keep) {
+    kept.model.cloud.push_back(whole.cloud.positions[k], whole.cloud.colors[k]);
+    kept.model.features.push_back(whole.features[k]);
+  }
+  ++kept.version;
+  kept.support += joined.support;
+  for (std::int32_t& label : frame_.labels) {
+    if (label == joined_id) label = kept_id;
+  }
+  frame_.joined.emplace_back(kept_id, joined_id);
+  frame_.retired.push_back(joined_id);
+  forget(joined_id);
+}
+
+void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point) {
+  const JoinSplitOptions& o = options_.join_split;
+  std::map<std::int32_t, std::map<std::int32_t, std::vector<int>>> parts;  // object -> cluster -> points
+  for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
+    if (frame_.labels[i] != 0 && cluster_of_point[i] >= 0) {
+      parts[frame_.labels[i]][cluster_of_point[i]].push_back(static_cast<int>(i));
+    }
+  }
+  std::vector<std::int32_t> ids;
+  for (const auto& [id, object] : objects_) ids.push_back(id);
+  for (const std::int32_t id : ids) {
+    ManagedObject& object = objects_.at(id);
+    int& streak = split_streak_[id];
+    std::size_t total = 0;
+    for (const auto& [cluster, points] : parts[id]) total += points.size();
+    std::vector<const std::vector<int>*> large;
+    for (const auto& [cluster, points] : parts[id]) {
+      if (points.size() >= options_.min_object_points &&
+          static_cast<float>(points.size()) >= o.split_min_share * static_cast<float>(total)) {
+        large.push_back(&points);
+      }
+    }
+    bool apart = !object.stale && large.size() >= 2;
+    if (apart) {
+      if (!occlusion_scene_set_) {
+        occlusion_.set_scene(scene.positions);
+        occlusion_scene_set_ = true;
+      }
+      apart = occlusion_.occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
+    }
+    streak = apart ? streak + 1 : 0;
+    if (streak < o.split_frames) continue;
+    streak = 0;
+    // The object keeps its largest part (first of equals) and a model of it; the others are new.
+    const auto largest = std::max_element(large.begin(), large.end(), [](const auto* x, const auto* y) {
+      return x->size() < y->size();
+    });
+    const std::vector<int>& own = **largest;
+    const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
+    ColoredCloud part;
+    for (const int i : own) part.push_back(camera_to_object * scene.positions[static_cast<std::size_t>(i)], scene.colors[static_cast<std::size_t>(i)]);
+    const std::vector<std::uint32_t> keep = even_subset(part, options_.max_model_points);
+    object.model.cloud.clear();
+    for (const std::uint32_t k : keep) object.model.cloud.push_back(part.positions[k], part.colors[k]);
+    object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
+    ++object.version;
+    current_birth_ = next_birth_++;
+    for (const auto* points : large) {
+      if (points == &own) continue;
+      for (const int i : *points) frame_.labels[static_cast<std::size_t>(i)] = 0;
+      const std::size_t before = frame_.created.size();
+      create_object(scene, *points);
+      if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
+    }
+  }
 }
 
 }  // namespace mfot

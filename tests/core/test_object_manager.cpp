@@ -371,3 +371,139 @@ TEST(ObjectManager, RejectsInvalidOptionsAndInputs) {
 
 }  // namespace
 }  // namespace mfot
+
+namespace mfot {
+namespace {
+
+// Two blocks side by side as one cluster, split by the stand-in discovery: objects 1 and 2, born
+// together.
+struct BornTogether {
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  BornTogether() { add_block(cloud, cluster, 0, {-0.0275f, 0.f, 1.f}, {12, 12, 6}); }
+};
+
+ObjectManagerOptions join_options() {
+  ObjectManagerOptions options;
+  options.model_update.alpha = 0.f;  // models stay as born: the joined one is checked point by point
+  options.join_split.join_frames = 5;
+  options.join_split.join_min_motion = 0.02f;
+  return options;
+}
+
+// Every object moved by offset (its estimate), the scene moved alike.
+std::map<std::int32_t, ObjectEstimate> moved(const ObjectManager& manager, const Eigen::Vector3f& offset,
+                                             std::span<const std::int32_t> ids) {
+  std::map<std::int32_t, ObjectEstimate> estimates;
+  for (const auto& [id, object] : manager.objects()) {
+    Pose pose = object.pose;
+    if (std::find(ids.begin(), ids.end(), id) != ids.end()) pose.translation += offset;
+    estimates[id] = {pose, 1.f};
+  }
+  return estimates;
+}
+
+ColoredCloud shifted(const ColoredCloud& cloud, const Eigen::Vector3f& offset) {
+  ColoredCloud out = cloud;
+  for (auto& p : out.positions) p += offset;
+  return out;
+}
+
+TEST(ObjectManagerJoin, PartsBornTogetherThatMoveAsOneBecomeOneObject) {
+  BornTogether scene;
+  ObjectManager manager(join_options(), std::make_unique<SplitAtXZero>());
+  manager.process(scene.cloud, scene.cluster, {});
+  ASSERT_EQ(manager.objects().size(), 2u);
+  const std::size_t model_points = manager.objects().at(1).model.cloud.size() + manager.objects().at(2).model.cloud.size();
+  const std::vector<std::int32_t> both{1, 2};
+  Eigen::Vector3f offset = Eigen::Vector3f::Zero();
+  std::vector<std::pair<std::int32_t, std::int32_t>> joined;
+  for (int frame = 1; frame <= 8 && joined.empty(); ++frame) {
+    const auto estimates = moved(manager, {0.01f, 0.f, 0.f}, both);
+    offset.x() += 0.01f;
+    const auto& result = manager.process(shifted(scene.cloud, offset), scene.cluster, estimates);
+    joined = result.joined;
+    if (!joined.empty()) {
+      EXPECT_EQ(result.retired, (std::vector<std::int32_t>{2}));
+      for (const std::int32_t label : result.labels) EXPECT_EQ(label, 1);
+    }
+  }
+  ASSERT_EQ(joined, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
+  ASSERT_EQ(manager.objects().size(), 1u);
+  const ManagedObject& whole = manager.objects().at(1);
+  EXPECT_EQ(whole.model.cloud.size(), model_points);
+  EXPECT_EQ(whole.model.features.size(), model_points);
+  // The joined model at the kept pose covers both blocks: every scene point has a model point near.
+  const Eigen::Isometry3f pose = whole.pose.isometry();
+  const ColoredCloud now = shifted(scene.cloud, offset);
+  for (std::size_t i = 0; i < now.size(); i += 37) {
+    float nearest = 1.f;
+    for (const auto& p : whole.model.cloud.positions) nearest = std::min(nearest, (pose * p - now.positions[i]).norm());
+    EXPECT_LT(nearest, 1e-4f) << "scene point " << i;
+  }
+}
+
+TEST(ObjectManagerJoin, StillOrSeparatelyMovingOrUnrelatedObjectsStayApart) {
+  {  // born together, never moving
+    BornTogether scene;
+    ObjectManager manager(join_options(), std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    for (int frame = 0; frame < 20; ++frame) manager.process(scene.cloud, scene.cluster, unchanged(manager));
+    EXPECT_EQ(manager.objects().size(), 2u);
+  }
+  {  // born together, only one moving
+    BornTogether scene;
+    ObjectManager manager(join_options(), std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    const std::vector<std::int32_t> one{1};
+    for (int frame = 0; frame < 20; ++frame) manager.process(scene.cloud, scene.cluster, moved(manager, {0.005f, 0.f, 0.f}, one));
+    EXPECT_EQ(manager.objects().size(), 2u);
+  }
+  {  // moving together, but born from different clusters (a hand carrying an object)
+    TwoBlocks scene;
+    ObjectManager manager(join_options());
+    manager.process(scene.cloud, scene.cluster, {});
+    const std::vector<std::int32_t> both{1, 2};
+    for (int frame = 0; frame < 20; ++frame) manager.process(scene.cloud, scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
+    EXPECT_EQ(manager.objects().size(), 2u);
+  }
+}
+
+TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
+  // One cluster at birth: one object over both blocks.
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  add_block(cloud, cluster, 0, {-0.14f, 0.f, 1.f}, {10, 14, 6});
+  ObjectManagerOptions options;
+  options.join_split.split_frames = 3;
+  ObjectManager manager(options);
+  manager.process(cloud, cluster, {});
+  ASSERT_EQ(manager.objects().size(), 1u);
+  // Later the clustering sees the blocks apart (pushed apart by less than tau: still segmented).
+  std::vector<std::int32_t> apart(cluster.size(), 0);
+  std::fill(apart.begin() + 12 * 12 * 6, apart.end(), 1);
+  for (int frame = 1; frame <= 2; ++frame) {
+    EXPECT_TRUE(manager.process(cloud, apart, unchanged(manager)).split.empty());
+  }
+  const auto& result = manager.process(cloud, apart, unchanged(manager));
+  ASSERT_EQ(result.split, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
+  EXPECT_EQ(result.created, (std::vector<std::int32_t>{2}));
+  ASSERT_EQ(manager.objects().size(), 2u);
+  // The larger block (12 x 12 x 6 points) keeps id 1 and a model of itself only.
+  EXPECT_EQ(manager.objects().at(1).model.cloud.size(), 12u * 12u * 6u);
+  EXPECT_EQ(manager.objects().at(2).model.cloud.size(), 10u * 14u * 6u);
+  for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(result.labels[i], apart[i] == 0 ? 1 : 2);
+}
+
+TEST(JoinSplitOptions, RejectsOutOfRangeFields) {
+  JoinSplitOptions o;
+  o.join_frames = -1;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o = {};
+  o.split_min_share = 0.6f;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mfot

@@ -24,6 +24,30 @@
 
 namespace mfot {
 
+// Joining parts of one rigid object and splitting an object whose parts moved apart (step 7 of
+// ObjectManager). Member defaults: both off (the thesis has neither).
+struct JoinSplitOptions {
+  // Objects born together (one cluster split by the discovery) whose relative pose stays within
+  // join_translation / join_rotation_deg for join_frames frames while the older one moves at least
+  // join_min_motion or turns join_min_turn_deg, and whose models touch (join_contact_distance),
+  // are one object: the younger joins the older. 0 frames = off.
+  int join_frames = 0;                // [0, 10000]
+  float join_translation = 0.005f;    // metres, (0, 0.1]
+  float join_rotation_deg = 3.f;      // (0, 45]
+  float join_min_motion = 0.03f;      // metres, (0, 1]
+  float join_min_turn_deg = 20.f;     // (0, 180]
+  float join_contact_distance = 0.01f;  // metres, (0, 0.1]
+  // An object whose segmented points lie in two or more clusters, each holding at least
+  // split_min_share of them (and min_object_points), for split_frames frames in a row while at
+  // most split_max_occluded of its model is hidden (a hand in front cuts the visible part in
+  // two), is split: it keeps its largest part (its model is rebuilt from it) and every other part
+  // becomes a new object. 0 frames = off.
+  int split_frames = 0;               // [0, 10000]
+  float split_min_share = 0.2f;       // (0, 0.5]
+  float split_max_occluded = 0.1f;    // [0, 1]
+  void validate() const;
+};
+
 // Member defaults: the thesis's values, for library users and unit tests; the services and
 // mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
 struct ObjectManagerOptions {
@@ -58,6 +82,7 @@ struct ObjectManagerOptions {
   // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
   // make_object_discovery and hand it to the manager (the manager itself only validates it).
   DiscoveryOptions discovery;
+  JoinSplitOptions join_split;
   void validate() const;
 };
 
@@ -82,7 +107,9 @@ struct ManagedObject {
 struct ObjectManagerFrame {
   std::vector<std::int32_t> labels;    // per scene point: object id, 0 = none
   std::vector<std::int32_t> created;   // ids created this frame (ascending)
-  std::vector<std::int32_t> retired;   // ids retired this frame
+  std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
+  std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
+  std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
 };
 
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
@@ -101,7 +128,9 @@ struct ObjectManagerFrame {
 //      their locally convex parts, each an object (touching and stacked objects apart); a new
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
-//      back (its model and object frame are new: the pose jumps once).
+//      back (its model and object frame are new: the pose jumps once);
+//   7. join objects born together that moved as one rigid body, split objects whose parts moved
+//      apart (JoinSplitOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -143,6 +172,12 @@ class ObjectManager {
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
+  // Step 7.
+  void join_rigid_parts();
+  bool models_touch(const ManagedObject& a, const ManagedObject& b, float distance);
+  void join(std::int32_t kept, std::int32_t joined);
+  void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
+  void forget(std::int32_t id);  // an object that is gone: every per-object table
 
   ObjectManagerOptions options_;
   std::unique_ptr<ObjectDiscovery> discovery_;
@@ -160,6 +195,20 @@ class ObjectManager {
   std::map<std::int32_t, ColorHistogram> first_seen_;  // per live object
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
+  // Step 7 state: siblings share the discovery split they were born from; a pair's relative pose
+  // (b in a's frame) and a's pose when it last changed; frames each object has been in parts.
+  struct PairWatch {
+    Eigen::Isometry3f relative = Eigen::Isometry3f::Identity();
+    Pose start;
+    int frames = 0;
+  };
+  std::uint64_t next_birth_ = 1;
+  std::uint64_t current_birth_ = 0;
+  std::map<std::int32_t, std::uint64_t> birth_;
+  std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
+  std::map<std::int32_t, int> split_streak_;
+  bool occlusion_scene_set_ = false;
+  SpatialHash contact_hash_{0.01f};
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
   ClusterSet clusters_;

@@ -133,8 +133,15 @@ void MergerCore::finish_frame(Clock::time_point now) {
   const FrameAssembler::DueFrame due = frames_.take(workers_);
   const std::int64_t seq = due.scene.frame_seq;
   const ObjectManagerFrame& result = manager_.process(due.scene.cloud, due.scene.cluster, due.estimates);
+  for (const auto& [kept, joined] : result.joined) {
+    spdlog::info("object {} joined into object {} (they moved as one rigid body)", joined, kept);
+  }
+  for (const auto& [split, created] : result.split) {
+    spdlog::info("object {} split: its part that moved apart is object {}", split, created);
+  }
   for (const std::int32_t id : result.retired) {
-    spdlog::info("object {} retired (no support)", id);
+    const bool joined = std::any_of(result.joined.begin(), result.joined.end(), [id](const auto& j) { return j.second == id; });
+    if (!joined) spdlog::info("object {} retired (no support)", id);
     workers_.release(id, now);
     sink_.send_retirement(id, seq);
   }

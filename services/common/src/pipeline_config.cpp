@@ -142,6 +142,16 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.sanity_criterion = discovery.get<bool>("sanity_criterion");
   c.manager.discovery.min_part_points = discovery.get<int>("min_part_points", 1, 100000);
   discovery.finish();
+  auto& js = c.manager.join_split;
+  js.join_frames = s.get<int>("join_frames", 0, 10000);
+  js.join_translation = s.get<float>("join_translation", 1e-4f, 0.1f);
+  js.join_rotation_deg = s.get<float>("join_rotation_deg", 0.1f, 45.f);
+  js.join_min_motion = s.get<float>("join_min_motion", 1e-3f, 1.f);
+  js.join_min_turn_deg = s.get<float>("join_min_turn_deg", 0.1f, 180.f);
+  js.join_contact_distance = s.get<float>("join_contact_distance", 1e-3f, 0.1f);
+  js.split_frames = s.get<int>("split_frames", 0, 10000);
+  js.split_min_share = s.get<float>("split_min_share", 0.01f, 0.5f);
+  js.split_max_occluded = s.get<float>("split_max_occluded", 0.f, 1.f);
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
   const auto q = world.get_vector("rotation", 4);
