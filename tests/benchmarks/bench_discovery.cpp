@@ -101,9 +101,9 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "[bench-discovery] %s: %s (skipped)\n", path.c_str(), error.c_str());
         continue;
       }
-      if (image.label.empty()) {
-        std::fprintf(stderr, "[bench-discovery] %s: no label field (skipped)\n", path.c_str());
-        continue;
+      if (image.label.empty()) {  // no ground truth: every object counts as spurious (see --dump)
+        std::fprintf(stderr, "[bench-discovery] %s: no label field: objects only\n", path.c_str());
+        image.label.assign(image.xyz.size() / 3, 0);
       }
       const std::string scene = path.stem().string();
       const std::size_t pixels = image.label.size();
