@@ -33,6 +33,12 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "resampling must be kMultinomial or kSystematic");
   require(o.predicted_fraction >= 0.f && o.predicted_fraction <= 1.f,
           "predicted_fraction must be in [0, 1], got " + std::to_string(o.predicted_fraction));
+  require(o.refine_rounds >= 0 && o.refine_rounds <= 20,
+          "refine_rounds must be in [0, 20], got " + std::to_string(o.refine_rounds));
+  require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
+          "refine_translation must be in [0, 0.1] m, got " + std::to_string(o.refine_translation));
+  require(std::isfinite(o.refine_rotation) && o.refine_rotation >= 0.f && o.refine_rotation <= 0.5f,
+          "refine_rotation must be in [0, 0.5] rad, got " + std::to_string(o.refine_rotation));
   return o;
 }
 
@@ -190,9 +196,33 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   likelihood_weights(scores_, options_.lambda, weights_);
   const Pose previous = estimate_;
   estimate_ = weighted_pose_mean(particles_, weights_, previous.rotation);
+  if (options_.refine_rounds > 0) refine(data, likelihood);
   velocity_ = pose_difference(previous, estimate_);
   resample_pending_ = true;
   return estimate_;
+}
+
+void ParticleFilter::refine(const HypothesisData& data, Likelihood& likelihood) {
+  float translation = options_.refine_translation;
+  float rotation = options_.refine_rotation;
+  candidates_.resize(13);
+  candidate_scores_.resize(13);
+  for (int round = 0; round < options_.refine_rounds; ++round) {
+    candidates_[0] = estimate_;
+    for (int k = 0; k < 6; ++k) {
+      for (int sign = 0; sign < 2; ++sign) {
+        PoseVector step = PoseVector::Zero();
+        step[k] = (sign == 0 ? 1.f : -1.f) * (k < 3 ? translation : rotation);
+        candidates_[static_cast<std::size_t>(1 + 2 * k + sign)] = apply_increment(estimate_, step);
+      }
+    }
+    likelihood.evaluate(candidates_, data, candidate_scores_);
+    // The first of equal scores wins, so the estimate stays unless a move scores higher.
+    const auto best = std::max_element(candidate_scores_.begin(), candidate_scores_.end()) - candidate_scores_.begin();
+    estimate_ = candidates_[static_cast<std::size_t>(best)];
+    translation *= 0.5f;
+    rotation *= 0.5f;
+  }
 }
 
 const Pose& ParticleFilter::hold() {

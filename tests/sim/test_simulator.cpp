@@ -46,7 +46,7 @@ std::vector<Eigen::Vector3f> volume_samples(const Primitive& prim, const Eigen::
 
 TEST(Simulator, ScenarioNamesAndFrameCounts) {
   const auto names = scenario_names();
-  ASSERT_EQ(names.size(), 5u);
+  ASSERT_EQ(names.size(), 6u);
   for (const std::string& name : names) {
     const Simulator sim(options_for(name));
     EXPECT_GE(sim.num_frames(), 300) << name;
@@ -133,6 +133,7 @@ TEST(Simulator, ObjectsSeparatedAndVisibleAtFrameZero) {
         EXPECT_GE(points[p.id].size(), 200u) << o.scenario.name << " object " << p.id;
       }
     }
+    if (o.scenario.name == "apart") continue;  // its objects start stacked and touching on purpose
     for (auto a = points.begin(); a != points.end(); ++a) {
       for (auto b = std::next(a); b != points.end(); ++b) {
         float closest = 1e9f;

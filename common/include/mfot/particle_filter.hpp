@@ -31,6 +31,13 @@ struct ParticleFilterOptions {
   ResamplingScheme resampling = ResamplingScheme::kSystematic;
   float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
   std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
+  // Local refinement of the estimate on the same likelihood (step 6): rounds of a pattern search
+  // that tries the estimate moved by +-refine_translation along each axis and turned by
+  // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
+  // the best and halves both steps. 0 rounds = the thesis (the weighted mean only).
+  int refine_rounds = 0;            // [0, 20]
+  float refine_translation = 0.002f;  // metres, [0, 0.1]
+  float refine_rotation = 0.0175f;    // radians, [0, 0.5]
 };
 
 // Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
@@ -57,7 +64,10 @@ Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weig
 //  4. evaluate the particles with the likelihood (3.20) and weight them with 3.21;
 //  5. estimate (2.11): weighted mean translation and the weighted quaternion mean (eigenvector of
 //     the largest eigenvalue of sum w_i q_i q_i^T, sign-aligned with the previous estimate);
-//     dX = X_t - X_{t-1} (2.13).
+//     dX = X_t - X_{t-1} (2.13);
+//  6. with refine_rounds > 0, refine the estimate by a pattern search on the likelihood before
+//     dX is taken (departure: the weighted mean of 100 particles over 6 DoF lags a turning object;
+//     the refined estimate's dX then predicts the next frame's particles further).
 // The first step after reset() skips 1-3: the particles were just drawn from N(X_init, C_init)
 // (2.12). Deterministic for a given seed and call sequence; step() allocates nothing once reset()
 // has sized the buffers. Non-copyable: it owns the particle buffers and its generator.
@@ -102,6 +112,7 @@ class ParticleFilter {
   float standard_normal();
   void resample();
   void diffuse_and_predict();
+  void refine(const HypothesisData& data, Likelihood& likelihood);
 
   ParticleFilterOptions options_;
   std::mt19937_64 rng_;
@@ -114,6 +125,8 @@ class ParticleFilter {
   std::vector<float> weights_;
   std::vector<float> scores_;
   std::vector<double> cdf_;
+  std::vector<Pose> candidates_;
+  std::vector<float> candidate_scores_;
   Pose estimate_;
   PoseVector velocity_ = PoseVector::Zero();
 };

@@ -425,10 +425,11 @@ Script apart_scenario() {
                         at(0.12f, 0.06f, base_size.z() + gap + 0.5f * top_size.z()));
   const Eigen::Vector3f tall_size(0.08f, 0.08f, 0.11f), low_size(0.08f, 0.07f, 0.06f);
   s.add(b, make_box(3, tall_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
-        at(-0.22f, 0.12f, 0.5f * tall_size.z()));
-  // Touching the tall box's right face, set back 5 mm so the front faces are not flush.
+        at(-0.12f, 0.12f, 0.5f * tall_size.z()));
+  // Touching the tall box's left face (the hand's side: its arm never crosses the tall box), set back
+  // 5 mm so the front faces are not flush.
   const int low = s.add(b, make_box(4, low_size, {kCyan, kOrange, kMagenta, kLime, kPurple, kPink}),
-                        at(-0.22f + 0.5f * tall_size.x() + gap + 0.5f * low_size.x(), 0.125f, 0.5f * low_size.z()));
+                        at(-0.12f - 0.5f * tall_size.x() - gap - 0.5f * low_size.x(), 0.125f, 0.5f * low_size.z()));
   const Iso home = at(-0.75f, 0.05f, 0.35f);
   const int hand = s.add(b, make_hand(101), home);
 
@@ -436,7 +437,8 @@ Script apart_scenario() {
   pick_and_place(b, s.infos, hand, top, 0.0f, at(0.02f, -0.10f, 0.5f * top_size.z(), -15.0f * kPi / 180.0f), 0.06f);
   b.move({{hand, home}});
   b.wait(1.0);
-  pick_and_place(b, s.infos, hand, low, 0.0f, at(-0.14f, 0.34f, 0.5f * low_size.z(), 25.0f * kPi / 180.0f), 0.06f);
+  // Fingers over its back face: its right face touches the tall box.
+  pick_and_place(b, s.infos, hand, low, 0.5f * kPi, at(-0.30f, 0.30f, 0.5f * low_size.z(), 25.0f * kPi / 180.0f), 0.06f);
   b.move({{hand, home}});
   return b.finish(0.8);
 }

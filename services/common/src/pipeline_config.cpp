@@ -76,6 +76,9 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.a = s.get<float>("diffusion_a", 0.f, 100.f);
   c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
+  c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
+  c.filter.refine_translation = s.get<float>("refine_translation", 0.f, 0.1f);
+  c.filter.refine_rotation = s.get<float>("refine_rotation", 0.f, 0.5f);
   c.step.hypothesis.margin = s.get<float>("hypothesis_margin", 0.f, 1.f);
   c.step.hold_occluded_share = s.get<float>("hold_occluded_share", 0.f, 1.f);
   c.step.max_hold_frames = s.get<int>("max_hold_frames", 1, 100000);
