@@ -27,6 +27,7 @@ void JoinSplitOptions::validate() const {
   in("join_contact_distance", join_contact_distance, 0, 0.1, true);
   in("split_frames", split_frames, 0, 10000, false);
   in("split_min_share", split_min_share, 0, 0.5, true);
+  in("split_min_gap", split_min_gap, 0, 1, false);
   in("split_max_occluded", split_max_occluded, 0, 1, false);
 }
 
@@ -491,6 +492,20 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       }
     }
     bool apart = !object.stale && large.size() >= 2;
+    if (apart && o.split_min_gap > 0.f) {
+      // The two largest parts: no point of one within split_min_gap of the other.
+      std::sort(large.begin(), large.end(), [](const auto* x, const auto* y) { return x->size() > y->size(); });
+      std::vector<Eigen::Vector3f> first;
+      for (const int i : *large[0]) first.push_back(scene.positions[static_cast<std::size_t>(i)]);
+      contact_hash_ = SpatialHash(o.split_min_gap);
+      contact_hash_.build(first);
+      for (const int i : *large[1]) {
+        if (contact_hash_.nearest(scene.positions[static_cast<std::size_t>(i)], o.split_min_gap) >= 0) {
+          apart = false;
+          break;
+        }
+      }
+    }
     if (apart) {
       if (!occlusion_scene_set_) {
         occlusion_.set_scene(scene.positions);

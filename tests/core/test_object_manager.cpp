@@ -477,12 +477,20 @@ TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
   add_block(cloud, cluster, 0, {-0.14f, 0.f, 1.f}, {10, 14, 6});
   ObjectManagerOptions options;
   options.join_split.split_frames = 3;
-  ObjectManager manager(options);
-  manager.process(cloud, cluster, {});
-  ASSERT_EQ(manager.objects().size(), 1u);
+  options.join_split.split_min_gap = 0.004f;  // the blocks' facing sides are 5 mm apart
   // Later the clustering sees the blocks apart (pushed apart by less than tau: still segmented).
   std::vector<std::int32_t> apart(cluster.size(), 0);
   std::fill(apart.begin() + 12 * 12 * 6, apart.end(), 1);
+  {  // parts closer than split_min_gap are one object however long they stay in two clusters
+    ObjectManagerOptions close = options;
+    close.join_split.split_min_gap = 0.03f;
+    ObjectManager manager(close);
+    manager.process(cloud, cluster, {});
+    for (int frame = 1; frame <= 6; ++frame) EXPECT_TRUE(manager.process(cloud, apart, unchanged(manager)).split.empty());
+  }
+  ObjectManager manager(options);
+  manager.process(cloud, cluster, {});
+  ASSERT_EQ(manager.objects().size(), 1u);
   for (int frame = 1; frame <= 2; ++frame) {
     EXPECT_TRUE(manager.process(cloud, apart, unchanged(manager)).split.empty());
   }

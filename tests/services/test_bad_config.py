@@ -49,7 +49,7 @@ SECTION_CASES = [
     ("tracker", "tracker:\n  init_sigma: [0.1, 0.1]\n", ["tracker.init_sigma", "expected a list of 6 numbers"]),
     # out of range
     ("capture", "capture:\n  speed: 0\n", ["capture.speed", "out of range [0.001000, 100.000000]"]),
-    ("capture", "capture:\n  scenario: maze\n", ["capture.scenario", "'maze'", "stack|contact|rotate|static|random"]),
+    ("capture", "capture:\n  scenario: maze\n", ["capture.scenario", "'maze'", "stack|contact|rotate|apart|static|random"]),
     ("preprocess", "preprocess:\n  voxel_size: 2\n", ["preprocess.voxel_size", "out of range [0.000100, 1.000000]"]),
     ("preprocess", "preprocess:\n  crop_min: [0, 0, 2]\n  crop_max: [1, 1, 1]\n", ["preprocess:", "crop_min"]),
     ("tracker", "tracker:\n  particles: 0\n", ["tracker.particles", "out of range [1, 100000]"]),

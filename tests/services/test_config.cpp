@@ -220,7 +220,9 @@ TEST(DefaultConfig, TheRealTableTopConfigLoads) {
   EXPECT_EQ(capture.pcd_background_label_max, 9u);
   const PreprocessConfig preprocess = load_preprocess_config(root);
   EXPECT_FLOAT_EQ(preprocess.preprocessor.crop_max.z(), 1.6f);
-  EXPECT_FLOAT_EQ(preprocess.preprocessor.plane_margin, 0.015f);
+  EXPECT_FLOAT_EQ(preprocess.preprocessor.plane_margin, 0.01f);
+  EXPECT_FLOAT_EQ(preprocess.preprocessor.plane_margin_sigmas, 3.f);
+  EXPECT_TRUE(preprocess.preprocessor.table_prism);
   EXPECT_NO_THROW(load_tracker_config(root));
   EXPECT_NO_THROW(load_merger_config(root));
 }

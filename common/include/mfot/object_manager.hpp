@@ -38,12 +38,16 @@ struct JoinSplitOptions {
   float join_min_turn_deg = 20.f;     // (0, 180]
   float join_contact_distance = 0.01f;  // metres, (0, 0.1]
   // An object whose segmented points lie in two or more clusters, each holding at least
-  // split_min_share of them (and min_object_points), for split_frames frames in a row while at
+  // split_min_share of them (and min_object_points), the largest two split_min_gap apart, for
+  // split_frames frames in a row while at
   // most split_max_occluded of its model is hidden (a hand in front cuts the visible part in
   // two), is split: it keeps its largest part (its model is rebuilt from it) and every other part
   // becomes a new object. 0 frames = off.
   int split_frames = 0;               // [0, 10000]
   float split_min_share = 0.2f;       // (0, 0.5]
+  // The parts must lie at least this far apart (metres, [0, 1]): a grazing view that cuts an arm
+  // from its hand by a few centimetres is not two objects.
+  float split_min_gap = 0.03f;
   float split_max_occluded = 0.1f;    // [0, 1]
   void validate() const;
 };

@@ -154,6 +154,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   js.join_contact_distance = s.get<float>("join_contact_distance", 1e-3f, 0.1f);
   js.split_frames = s.get<int>("split_frames", 0, 10000);
   js.split_min_share = s.get<float>("split_min_share", 0.01f, 0.5f);
+  js.split_min_gap = s.get<float>("split_min_gap", 0.f, 1.f);
   js.split_max_occluded = s.get<float>("split_max_occluded", 0.f, 1.f);
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
