@@ -2,6 +2,8 @@
 // sees them (visible faces only, 5 mm samples like the scene's voxels).
 #include "mfot/object_discovery.hpp"
 
+#include "../core/preprocess_test_scene.hpp"
+
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -19,16 +21,12 @@ struct View {
   std::vector<int> box;                    // which box each point samples
 };
 
-// Camera frame: at kCamera looking at the world origin, x right, y down, z forward.
+// Camera frame: at kCamera looking at the world origin, x right, y down, z forward (the preprocessing
+// tests' camera).
 Eigen::Matrix3f camera_from_world() {
-  const Eigen::Vector3f forward = (-kCamera).normalized();
-  const Eigen::Vector3f right = forward.cross(Eigen::Vector3f::UnitZ()).normalized();
-  const Eigen::Vector3f down = forward.cross(right);
-  Eigen::Matrix3f r;
-  r.row(0) = right;
-  r.row(1) = down;
-  r.row(2) = forward;
-  return r;
+  test_scene::Camera camera;
+  camera.eye = kCamera;
+  return camera.rotation().transpose();
 }
 
 // Samples the faces of the axis-aligned box [lo, hi] (no bottom) that face the camera, leaving out
