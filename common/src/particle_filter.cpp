@@ -33,6 +33,10 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "resampling must be kMultinomial or kSystematic");
   require(o.predicted_fraction >= 0.f && o.predicted_fraction <= 1.f,
           "predicted_fraction must be in [0, 1], got " + std::to_string(o.predicted_fraction));
+  require(o.anneal_iterations >= 1 && o.anneal_iterations <= 10,
+          "anneal_iterations must be in [1, 10], got " + std::to_string(o.anneal_iterations));
+  require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
+          "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
   require(o.refine_rounds >= 0 && o.refine_rounds <= 20,
           "refine_rounds must be in [0, 20], got " + std::to_string(o.refine_rounds));
   require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
@@ -169,6 +173,14 @@ void ParticleFilter::resample() {
   std::fill(weights_.begin(), weights_.end(), 1.f / static_cast<float>(n));
 }
 
+void ParticleFilter::diffuse(float scale) {
+  for (Pose& particle : particles_) {
+    PoseVector noise;
+    for (int k = 0; k < 6; ++k) noise[k] = scale * options_.init_sigma[k] * standard_normal();
+    particle = apply_increment(particle, noise);
+  }
+}
+
 void ParticleFilter::diffuse_and_predict() {
   const float sqrt_a = std::sqrt(options_.a);
   const float sqrt_b = std::sqrt(options_.b);
@@ -194,6 +206,14 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   }
   likelihood.evaluate(particles_, data, scores_);
   likelihood_weights(scores_, options_.lambda, weights_);
+  float scale = 1.f;
+  for (int k = 1; k < options_.anneal_iterations; ++k) {
+    scale *= options_.anneal_shrink;
+    resample();
+    diffuse(scale);
+    likelihood.evaluate(particles_, data, scores_);
+    likelihood_weights(scores_, options_.lambda, weights_);
+  }
   const Pose previous = estimate_;
   estimate_ = weighted_pose_mean(particles_, weights_, previous.rotation);
   if (options_.refine_rounds > 0) refine(data, likelihood);

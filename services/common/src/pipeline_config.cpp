@@ -76,6 +76,8 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.a = s.get<float>("diffusion_a", 0.f, 100.f);
   c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
+  c.filter.anneal_iterations = s.get<int>("anneal_iterations", 1, 10);
+  c.filter.anneal_shrink = s.get<float>("anneal_shrink", 0.01f, 1.f);
   c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
   c.filter.refine_translation = s.get<float>("refine_translation", 0.f, 0.1f);
   c.filter.refine_rotation = s.get<float>("refine_rotation", 0.f, 0.5f);
