@@ -55,3 +55,23 @@ class StatusTableTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class LoopbackTransportTest(unittest.TestCase):
+    """What a bare mfot-run checks before a group on one host starts (scripts/lib.sh sets it up)."""
+
+    def test_small_buffers_and_a_missing_route_are_named(self):
+        routes = "default via 10.0.0.1 dev eth0\nmulticast ff00::/8 dev eth0 table local proto kernel metric 256\n"
+        problems = mfot_run.loopback_transport_problems(212992, routes)
+        self.assertEqual(len(problems), 2)
+        self.assertIn("212992", problems[0])
+        self.assertIn("224.0.0.0/4", problems[1])
+
+    def test_the_set_up_of_scripts_lib_sh_passes(self):
+        routes = "224.0.0.0/4 dev lo scope link\n"
+        self.assertEqual(mfot_run.loopback_transport_problems(64 * 1024 * 1024, routes), [])
+        self.assertEqual(mfot_run.loopback_transport_problems(64 * 1024 * 1024, "multicast 224.0.0.0/4 dev lo\n"), [])
+
+    def test_without_ip_only_the_buffers_are_checked(self):
+        self.assertEqual(mfot_run.loopback_transport_problems(64 * 1024 * 1024, None), [])
+        self.assertNotEqual(mfot_run.loopback_transport_problems(1024, None), [])
