@@ -159,7 +159,8 @@ Motion motion_from(const Pose& first, const Pose& current) {
 
 }  // namespace
 
-std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std::span<const Pose> ground_truth) {
+std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std::span<const Pose> ground_truth,
+                                            const Eigen::Vector3f& symmetry_axis) {
   if (predicted.size() != ground_truth.size()) {
     throw std::invalid_argument("relative_pose_errors: predicted and ground-truth trajectories must have one size");
   }
@@ -167,6 +168,11 @@ std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std
   if (predicted.empty()) return errors;
   // The object's own centre at t0 (the ground-truth origin, a physical point), camera frame.
   const Eigen::Vector3d centre = ground_truth.front().translation.cast<double>();
+  // The symmetry axis at t0, camera frame.
+  const bool symmetric = symmetry_axis.squaredNorm() > 0.f;
+  const Eigen::Vector3d axis = symmetric ? (ground_truth.front().rotation.cast<double>() *
+                                            symmetry_axis.cast<double>().normalized())
+                                         : Eigen::Vector3d::Zero();
   for (std::size_t t = 0; t < predicted.size(); ++t) {
     const Motion p = motion_from(predicted.front(), predicted[t]);
     const Motion g = motion_from(ground_truth.front(), ground_truth[t]);
@@ -176,6 +182,12 @@ std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std
     errors[t].translation_mm = ((p.rotation * centre + p.translation) - (g.rotation * centre + g.translation)).norm() * 1000.0;
     errors[t].translation_at_camera_mm = (p.translation - g.translation).norm() * 1000.0;
     errors[t].rotation_deg = angle * 180.0 / std::numbers::pi;
+    errors[t].observable_rotation_deg = errors[t].rotation_deg;
+    if (symmetric) {
+      const Eigen::Vector3d carried_p = p.rotation * axis, carried_g = g.rotation * axis;
+      errors[t].observable_rotation_deg =
+          std::atan2(carried_p.cross(carried_g).norm(), carried_p.dot(carried_g)) * 180.0 / std::numbers::pi;
+    }
   }
   return errors;
 }
@@ -194,11 +206,13 @@ PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSum
   PoseErrorSummary s;
   s.count = errors.size();
   if (errors.empty()) return s;
-  std::vector<double> translations, rotations;
+  std::vector<double> translations, rotations, observable;
   std::size_t over_t = 0, over_r = 0, over_either = 0;
   for (const auto& e : errors) {
     translations.push_back(e.translation_mm);
     rotations.push_back(e.rotation_deg);
+    observable.push_back(e.observable_rotation_deg);
+    s.observable_rotation_max_deg = std::max(s.observable_rotation_max_deg, e.observable_rotation_deg);
     s.translation_mean_mm += e.translation_mm;
     s.rotation_mean_deg += e.rotation_deg;
     s.translation_max_mm = std::max(s.translation_max_mm, e.translation_mm);
@@ -214,6 +228,7 @@ PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSum
   s.rotation_mean_deg /= n;
   s.translation_median_mm = median_of(translations);
   s.rotation_median_deg = median_of(rotations);
+  s.observable_rotation_median_deg = median_of(observable);
   s.share_translation_over = static_cast<double>(over_t) / n;
   s.share_rotation_over = static_cast<double>(over_r) / n;
   s.share_either_over = static_cast<double>(over_either) / n;

@@ -290,3 +290,37 @@ TEST(SegmentMatch, PerfectAndEmpty) {
 
 }  // namespace
 }  // namespace mfot
+
+namespace mfot {
+namespace {
+
+TEST(RelativePoseErrors, AnObjectsSymmetryAxisLeavesTheTurnAboutItOut) {
+  // A can standing at 1 m, its axis the object z axis (camera frame: the can's axis is camera y).
+  Pose start;
+  start.translation = Eigen::Vector3f(0.f, 0.f, 1.f);
+  start.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(0.5f * std::numbers::pi_v<float>, Eigen::Vector3f::UnitX()));
+  const Eigen::Vector3f axis = Eigen::Vector3f::UnitZ();
+  // Truth: still. Prediction 1: turned 30 deg about the can's own axis; 2: tilted 10 deg.
+  const auto turned = [&](const Eigen::Vector3f& camera_axis, float degrees) {
+    Pose p = start;
+    p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(degrees * std::numbers::pi_v<float> / 180.f, camera_axis)) * start.rotation;
+    return p;
+  };
+  const Eigen::Vector3f can_axis_in_camera = start.rotation * axis;
+  const std::vector<Pose> truth{start, start, start};
+  const std::vector<Pose> predicted{start, turned(can_axis_in_camera, 30.f), turned(Eigen::Vector3f::UnitZ(), 10.f)};
+  const auto errors = relative_pose_errors(predicted, truth, axis);
+  EXPECT_NEAR(errors[1].rotation_deg, 30.0, 1e-3);
+  EXPECT_NEAR(errors[1].observable_rotation_deg, 0.0, 1e-3);
+  EXPECT_NEAR(errors[2].rotation_deg, 10.0, 1e-3);
+  EXPECT_NEAR(errors[2].observable_rotation_deg, 10.0, 1e-3);
+  // Without an axis the observable error is the whole one.
+  const auto plain = relative_pose_errors(predicted, truth);
+  EXPECT_DOUBLE_EQ(plain[1].observable_rotation_deg, plain[1].rotation_deg);
+  const PoseErrorSummary s = summarize(std::span<const PoseError>(errors).subspan(1));
+  EXPECT_NEAR(s.observable_rotation_max_deg, 10.0, 1e-3);
+  EXPECT_NEAR(s.rotation_max_deg, 30.0, 1e-3);
+}
+
+}  // namespace
+}  // namespace mfot

@@ -59,6 +59,7 @@ GroundTruthFrame make_truth(int k, const Frame& frame) {
   box.id = 1;
   box.pose.translation = Eigen::Vector3f(0.1f * static_cast<float>(k), -0.05f, 0.9f);
   box.pose.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(0.3f * static_cast<float>(k), Eigen::Vector3f::UnitZ()));
+  box.symmetry_axis = Eigen::Vector3f::UnitZ();  // a can
   GroundTruthObject hand;
   hand.id = 101;
   hand.is_hand = true;
@@ -170,6 +171,7 @@ TEST(TumDataset, GroundTruthReadsBack) {
       EXPECT_EQ(got.objects[o].is_hand, expected.objects[o].is_hand);
       EXPECT_TRUE(got.objects[o].pose.translation.isApprox(expected.objects[o].pose.translation, 1e-6f));
       EXPECT_NEAR(got.objects[o].pose.rotation.angularDistance(expected.objects[o].pose.rotation), 0.0f, 1e-5f);
+      EXPECT_EQ(got.objects[o].symmetry_axis, expected.objects[o].symmetry_axis);
     }
     const auto labels = reader.labels(k);
     ASSERT_TRUE(labels.has_value());
@@ -187,6 +189,7 @@ TEST(TumDataset, GarbageLinesAreSkippedWithFileAndLine) {
   append_line(temp.str("seq/rgb.txt"), "1.5 rgb/a.png extra");
   append_line(temp.str("seq/depth.txt"), "nan depth/x.png");
   append_line(temp.str("seq/groundtruth/poses.csv"), "0,1,2,3");
+  append_line(temp.str("seq/groundtruth/poses.csv"), "2,1,1,0,0,0,1,0,0,0,1,0,0,2");  // an axis of length 2
   TumDatasetReader reader(reader_options(temp.str("seq")));
   EXPECT_EQ(reader.size(), 2u);
   EXPECT_TRUE(contains(reader.warnings(), "rgb.txt:5:"));
@@ -194,8 +197,9 @@ TEST(TumDataset, GarbageLinesAreSkippedWithFileAndLine) {
   EXPECT_TRUE(contains(reader.warnings(), "depth.txt:5:"));
   GroundTruthReader truth(temp.str("seq/groundtruth"));
   EXPECT_EQ(truth.frames().size(), 2u);
-  // header + 2 frames x 2 objects, then the garbage line.
+  // header + 2 frames x 2 objects, then the garbage lines.
   EXPECT_TRUE(contains(truth.warnings(), "poses.csv:6:"));
+  EXPECT_TRUE(contains(truth.warnings(), "poses.csv:7:"));
 }
 
 TEST(TumDataset, MissingOrEmptyFolderIsAClearError) {

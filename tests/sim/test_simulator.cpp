@@ -260,3 +260,23 @@ TEST(Simulator, InvalidOptionsThrow) {
 
 }  // namespace
 }  // namespace mfot::sim
+
+namespace mfot::sim {
+namespace {
+
+TEST(Simulator, CansCarryTheirSymmetryAxisIntoTheGroundTruth) {
+  const Simulator sim(options_for("stack"));
+  int cans = 0;
+  for (const GroundTruthPose& p : sim.poses(0)) {
+    if (p.id == 3) {  // stack's striped can
+      EXPECT_EQ(p.symmetry_axis, Eigen::Vector3f::UnitZ());
+      ++cans;
+    } else {
+      EXPECT_EQ(p.symmetry_axis, Eigen::Vector3f::Zero()) << "body " << p.id;
+    }
+  }
+  EXPECT_EQ(cans, 1);
+}
+
+}  // namespace
+}  // namespace mfot::sim

@@ -99,6 +99,10 @@ struct PoseError {
   double translation_mm = 0.0;            // displacement error at the object's centre (see below)
   double rotation_deg = 0.0;
   double translation_at_camera_mm = 0.0;  // |t_pred - t_gt| of the motions (the literal reading)
+  // For a shape symmetric about an axis (a can), rotation about that axis is unobservable from
+  // shape: the error of the observable part is the angle between where the two motions carry the
+  // axis. Without an axis it equals rotation_deg.
+  double observable_rotation_deg = 0.0;
 };
 
 // Errors of one object's trajectory: frame t compares the predicted motion X_t X_t0^-1 with the
@@ -109,8 +113,10 @@ struct PoseError {
 // (the ground-truth origin at t0): |M_pred c - M_gt c|. The literal |t_pred - t_gt| measures the
 // displacement of the camera origin instead, which turns every 0.1 degree of rotation noise
 // into ~2 mm at the 1.1 m of a table-top scene; it is kept as translation_at_camera_mm. Both are
-// invariant to the choice of object frame. The spans must have one size.
-std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std::span<const Pose> ground_truth);
+// invariant to the choice of object frame. The spans must have one size. symmetry_axis: the
+// object's axis of symmetry in the ground-truth object frame (unit), or zero for none.
+std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std::span<const Pose> ground_truth,
+                                            const Eigen::Vector3f& symmetry_axis = Eigen::Vector3f::Zero());
 
 struct PoseErrorSummaryOptions {
   double translation_threshold_mm = 10.0;
@@ -121,6 +127,7 @@ struct PoseErrorSummary {
   std::size_t count = 0;
   double translation_mean_mm = 0.0, translation_median_mm = 0.0, translation_max_mm = 0.0;
   double rotation_mean_deg = 0.0, rotation_median_deg = 0.0, rotation_max_deg = 0.0;
+  double observable_rotation_median_deg = 0.0, observable_rotation_max_deg = 0.0;  // see PoseError
   double share_translation_over = 0.0;  // share of frames with translation error > threshold
   double share_rotation_over = 0.0;     // share of frames with rotation error > threshold
   double share_either_over = 0.0;       // share of frames over either threshold

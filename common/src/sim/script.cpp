@@ -154,7 +154,7 @@ BodyInfo make_can(int id, float diameter, float height, Rgb8 side, Rgb8 stripe, 
   p.pattern_color = stripe;
   p.pattern_period_m = period_m;
   p.label = static_cast<std::uint16_t>(id);
-  return {id, false, {p}};
+  return {id, false, {p}, Eigen::Vector3f::UnitZ()};  // the cylinder's axis
 }
 
 BodyInfo make_hand(int id, const Eigen::Vector3f& up_local) {

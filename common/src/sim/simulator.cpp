@@ -121,7 +121,7 @@ std::vector<GroundTruthPose> Simulator::poses(int index) const {
   std::vector<GroundTruthPose> out;
   for (std::size_t b = 0; b < impl_->bodies.size(); ++b) {
     out.push_back({impl_->bodies[b].id, impl_->bodies[b].is_hand,
-                   Pose::from_isometry(impl_->body_to_camera(static_cast<int>(b), t))});
+                   Pose::from_isometry(impl_->body_to_camera(static_cast<int>(b), t)), impl_->bodies[b].symmetry_axis});
   }
   return out;
 }

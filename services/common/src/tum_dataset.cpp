@@ -305,7 +305,7 @@ GroundTruthWriter::GroundTruthWriter(std::string folder) : folder_(std::move(fol
   const std::string path = (fs::path(folder_) / "poses.csv").string();
   std::error_code error;
   if (fs::exists(path, error)) throw DatasetError(path + ": already exists; choose an empty ground-truth folder");
-  poses_ = open_for_append(path, "frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw\n");
+  poses_ = open_for_append(path, "frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw,axis_x,axis_y,axis_z\n");
 }
 
 GroundTruthWriter::~GroundTruthWriter() { close_file(poses_); }
@@ -322,10 +322,12 @@ void GroundTruthWriter::write(const GroundTruthFrame& truth) {
   for (const auto& object : truth.objects) {
     const auto& t = object.pose.translation;
     const auto& q = object.pose.rotation;
-    std::snprintf(line, sizeof line, "%" PRId64 ",%" PRId64 ",%d,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", truth.frame,
-                  truth.utime, object.id, object.is_hand ? 1 : 0, static_cast<double>(t.x()),
+    const auto& a = object.symmetry_axis;
+    std::snprintf(line, sizeof line, "%" PRId64 ",%" PRId64 ",%d,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
+                  truth.frame, truth.utime, object.id, object.is_hand ? 1 : 0, static_cast<double>(t.x()),
                   static_cast<double>(t.y()), static_cast<double>(t.z()), static_cast<double>(q.x()),
-                  static_cast<double>(q.y()), static_cast<double>(q.z()), static_cast<double>(q.w()));
+                  static_cast<double>(q.y()), static_cast<double>(q.z()), static_cast<double>(q.w()),
+                  static_cast<double>(a.x()), static_cast<double>(a.y()), static_cast<double>(a.z()));
     lines += line;
   }
   append(poses_, (fs::path(folder_) / "poses.csv").string(), lines);
@@ -348,19 +350,24 @@ GroundTruthReader::GroundTruthReader(std::string folder) : folder_(std::move(fol
     std::string field;
     while (std::getline(stream, field, ',')) fields.push_back(trim(field));
     std::int64_t frame = 0, utime = 0, id = 0, is_hand = 0;
-    double v[7] = {};
-    bool ok = fields.size() == 11 && parse_int64(fields[0], frame) && frame >= 0 && parse_int64(fields[1], utime) &&
+    double v[10] = {};
+    const bool with_axis = fields.size() == 14;
+    bool ok = (fields.size() == 11 || with_axis) && parse_int64(fields[0], frame) && frame >= 0 && parse_int64(fields[1], utime) &&
               parse_int64(fields[2], id) && id >= 1 && id <= 65535 && parse_int64(fields[3], is_hand) &&
               (is_hand == 0 || is_hand == 1);
-    for (int k = 0; ok && k < 7; ++k) ok = parse_double(fields[static_cast<std::size_t>(4 + k)], v[k]);
+    for (int k = 0; ok && k < (with_axis ? 10 : 7); ++k) ok = parse_double(fields[static_cast<std::size_t>(4 + k)], v[k]);
+    if (ok && with_axis) {
+      const double axis = std::sqrt(v[7] * v[7] + v[8] * v[8] + v[9] * v[9]);
+      ok = axis == 0.0 || std::abs(axis - 1.0) < 1e-3;
+    }
     if (ok) {
       const double norm = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]);
       ok = std::abs(norm - 1.0) < 1e-3;
     }
     if (!ok) {
       const std::string message = path + ":" + std::to_string(number) +
-                                  ": expected 'frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw' with a unit "
-                                  "quaternion, line skipped";
+                                  ": expected 'frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw[,axis_x,axis_y,axis_z]' "
+                                  "with a unit quaternion and a unit or zero axis, line skipped";
       spdlog::warn("{}", message);
       warnings_.push_back(message);
       continue;
@@ -375,6 +382,7 @@ GroundTruthReader::GroundTruthReader(std::string folder) : folder_(std::move(fol
     object.pose.rotation = Eigen::Quaternionf(static_cast<float>(v[6]), static_cast<float>(v[3]),
                                               static_cast<float>(v[4]), static_cast<float>(v[5]))
                                .normalized();
+    object.symmetry_axis = Eigen::Vector3f(static_cast<float>(v[7]), static_cast<float>(v[8]), static_cast<float>(v[9]));
     truth.objects.push_back(object);
   }
 }

@@ -82,6 +82,11 @@ std::vector<GroundTruthPoseRow> read_groundtruth_poses(const fs::path& csv) {
     r.id = static_cast<std::int32_t>(t.integer(i, t.column("object_id"), 1, kMaxId));
     r.is_hand = t.boolean(i, t.column("is_hand"));
     r.pose = read_pose(t, i);
+    if (t.has_column("axis_x") && t.has_column("axis_y") && t.has_column("axis_z")) {
+      r.symmetry_axis = Eigen::Vector3f(static_cast<float>(t.number(i, t.column("axis_x"))),
+                                        static_cast<float>(t.number(i, t.column("axis_y"))),
+                                        static_cast<float>(t.number(i, t.column("axis_z"))));
+    }
   }
   reject_duplicates(t, rows);
   return rows;
@@ -311,15 +316,19 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
   for (const auto& row : predicted) predicted_by_id[row.id][row.frame] = &row;
   std::map<std::int32_t, std::map<std::int64_t, const GroundTruthPoseRow*>> groundtruth_by_id;
   std::map<std::int32_t, bool> is_hand;
+  std::map<std::int32_t, Eigen::Vector3f> symmetry_axis;
   for (const auto& row : groundtruth.poses) {
     groundtruth_by_id[row.id][row.frame] = &row;
     is_hand[row.id] = is_hand[row.id] || row.is_hand;
+    if (row.symmetry_axis.squaredNorm() > 0.f) symmetry_axis[row.id] = row.symmetry_axis;
   }
   const PoseErrorSummaryOptions summary_options{options.translation_threshold_mm, options.rotation_threshold_deg};
   for (const auto& [gt_id, seen] : visible) {
     ObjectResult object;
     object.groundtruth_id = gt_id;
     object.is_hand = is_hand[gt_id];
+    const auto axis = symmetry_axis.find(gt_id);
+    object.symmetric = axis != symmetry_axis.end();
     object.groundtruth_first_frame = seen.first;
     object.groundtruth_last_frame = seen.last;
     const auto mapped = predicted_for.find(gt_id);
@@ -338,7 +347,8 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
         gt_poses.push_back(it->second->pose);
         object.stale_frames += row->stale ? 1 : 0;
       }
-      object.errors = relative_pose_errors(pred_poses, gt_poses);
+      object.errors = relative_pose_errors(pred_poses, gt_poses,
+                                           object.symmetric ? axis->second : Eigen::Vector3f::Zero());
       if (object.errors.size() > 1) {
         object.summary = summarize(std::span<const PoseError>(object.errors).subspan(1), summary_options);
       }

@@ -108,6 +108,8 @@ void write_summary(Json& j, const PoseErrorSummary& s) {
   j.key("rotation_mean_deg").value(s.rotation_mean_deg);
   j.key("rotation_median_deg").value(s.rotation_median_deg);
   j.key("rotation_max_deg").value(s.rotation_max_deg);
+  j.key("observable_rotation_median_deg").value(s.observable_rotation_median_deg);
+  j.key("observable_rotation_max_deg").value(s.observable_rotation_max_deg);
   j.key("share_translation_over").value(s.share_translation_over);
   j.key("share_rotation_over").value(s.share_rotation_over);
   j.key("share_either_over").value(s.share_either_over);
@@ -221,6 +223,7 @@ void write_summary_json(const fs::path& file, const std::vector<RunResult>& runs
       j.key("predicted_first_frame").value(o.predicted_first_frame);
       j.key("predicted_last_frame").value(o.predicted_last_frame);
       j.key("lost").value(o.lost);
+      j.key("symmetric").value(o.symmetric);
       j.key("compared_frames").value(o.frames.size());
       j.key("stale_frames").value(o.stale_frames);
       j.key("pose_error");
@@ -268,6 +271,8 @@ void print_table(std::ostream& out, const std::vector<RunResult>& runs, const Ev
   }
   out << "(seg acc: scene points, thesis 4.3; pixel: every measured pixel, what preprocessing removed counted as "
          "unlabelled)\n";
+  out << "(obs r: for objects symmetric about an axis, the rotation error of that axis's direction, without the "
+         "turn about it that shape cannot show)\n";
   out << "(pose error over all objects' frames after their first tracked frame; > thr: share of frames over "
       << fixed(options.translation_threshold_mm, 1) << " mm or " << fixed(options.rotation_threshold_deg, 1)
       << " deg; objects and lost exclude hands)\n";
@@ -276,7 +281,8 @@ void print_table(std::ostream& out, const std::vector<RunResult>& runs, const Ev
     out << std::right << std::setw(6) << "gt id" << std::setw(6) << "hand" << std::setw(8) << "pred id" << std::setw(7)
         << "lost" << std::setw(8) << "frames" << std::setw(11) << "t mean mm" << std::setw(10) << "t med mm"
         << std::setw(10) << "t max mm" << std::setw(11) << "r mean deg" << std::setw(10) << "r med deg"
-        << std::setw(10) << "r max deg" << std::setw(9) << ">1cm %" << std::setw(9) << ">5deg %" << '\n';
+        << std::setw(10) << "r max deg" << std::setw(9) << ">1cm %" << std::setw(9) << ">5deg %" << std::setw(13)
+        << "obs r med" << std::setw(10) << "obs r max" << '\n';
     for (const auto& o : run.objects) {
       const auto& s = o.summary;
       out << std::setw(6) << o.groundtruth_id << std::setw(6) << (o.is_hand ? "yes" : "no") << std::setw(8)
@@ -285,8 +291,15 @@ void print_table(std::ostream& out, const std::vector<RunResult>& runs, const Ev
           << fixed(s.translation_mean_mm, 2) << std::setw(10) << fixed(s.translation_median_mm, 2) << std::setw(10)
           << fixed(s.translation_max_mm, 2) << std::setw(11) << fixed(s.rotation_mean_deg, 2) << std::setw(10)
           << fixed(s.rotation_median_deg, 2) << std::setw(10) << fixed(s.rotation_max_deg, 2) << std::setw(9)
-          << fixed(100.0 * s.share_translation_over, 1) << std::setw(9) << fixed(100.0 * s.share_rotation_over, 1)
-          << '\n';
+          << fixed(100.0 * s.share_translation_over, 1) << std::setw(9) << fixed(100.0 * s.share_rotation_over, 1);
+      // Symmetric objects (a can): the rotation error without the unobservable turn about the axis.
+      if (o.symmetric) {
+        out << std::setw(13) << fixed(s.observable_rotation_median_deg, 2) << std::setw(10)
+            << fixed(s.observable_rotation_max_deg, 2);
+      } else {
+        out << std::setw(13) << "-" << std::setw(10) << "-";
+      }
+      out << '\n';
     }
     for (const auto& t : run.timing) {
       out << "  timing " << t.name << ": mean " << fixed(t.mean, 3) << ", median " << fixed(t.median, 3) << ", p95 "

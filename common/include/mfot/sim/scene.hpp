@@ -31,6 +31,7 @@ struct GroundTruthPose {
   int id = 0;            // label value of the body in RenderedFrame::labels
   bool is_hand = false;
   Pose pose;
+  Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // body frame, unit; zero = none (BodyInfo)
 };
 
 struct RenderedFrame {

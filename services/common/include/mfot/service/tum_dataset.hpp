@@ -6,7 +6,8 @@
 // ("fx fy cx cy"), which the reader uses when present.
 //
 // Ground truth of rendered scenes lives next to it in groundtruth/: poses.csv with one line per
-// object and frame ("frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw", object -> camera, metres)
+// object and frame ("frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw,axis_x,axis_y,axis_z", object ->
+// camera, metres; the axis columns, an object's symmetry axis in its own frame or 0 0 0, are optional)
 // and labels/<frame %06d>.png (16-bit object id per pixel, 0 = background).
 //
 // Writers are crash-safe per frame: images are written under temporary names and renamed, then
@@ -95,6 +96,7 @@ struct GroundTruthObject {
   int id = 0;            // >= 1
   bool is_hand = false;  // the hand/gripper that moves objects (scored separately)
   Pose pose;             // object -> camera, metres
+  Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // object frame, unit; zero = none
 };
 
 struct GroundTruthFrame {

@@ -11,7 +11,7 @@
 //                        scene point (service::kNotScenePoint: table, cropped, filtered)
 //   run/fitting.csv      optional: frame,object_id,fitting_distance_m
 //   run/timing.csv       optional: any numeric columns, summarised per column
-//   gt/poses.csv         frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw
+//   gt/poses.csv         frame,utime,object_id,is_hand,x,y,z,qx,qy,qz,qw[,axis_x,axis_y,axis_z]
 //   gt/labels/           16-bit ground-truth label images, 0 = table / background
 //   gt/depth/ or run/depth/  optional 16-bit depth images (0 = no measurement), see below
 //
@@ -62,6 +62,7 @@ struct GroundTruthPoseRow {
   std::int32_t id = 0;
   bool is_hand = false;
   Pose pose;  // object -> camera
+  Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // object frame; zero: none (optional columns)
 };
 
 struct TimingColumn {
@@ -111,6 +112,7 @@ struct ObjectResult {
   std::int64_t groundtruth_first_frame = 0, groundtruth_last_frame = 0;  // evaluated frames with its points
   std::int64_t predicted_first_frame = -1, predicted_last_frame = -1;    // last non-stale; -1: none
   bool lost = false;
+  bool symmetric = false;           // the ground truth gives a symmetry axis (see PoseError)
   std::size_t stale_frames = 0;     // stale rows among the compared frames
   std::vector<std::int64_t> frames;  // compared frames, the first is t0
   std::vector<PoseError> errors;     // per compared frame (0 at t0)
