@@ -59,3 +59,19 @@ class SeedMatrixTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class RocTest(unittest.TestCase):
+    def setUp(self):
+        try:
+            self.module = load_script()
+        except ModuleNotFoundError as e:
+            self.skipTest(str(e))
+
+    def test_auc_of_a_perfect_a_useless_and_an_inverted_confidence(self):
+        auc = self.module.roc_auc
+        self.assertEqual(auc([(0.1, True), (0.2, True), (0.8, False), (0.9, False)]), 1.0)
+        self.assertEqual(auc([(0.5, True), (0.5, False)]), 0.5)
+        self.assertEqual(auc([(0.9, True), (0.1, False)]), 0.0)
+        self.assertAlmostEqual(auc([(0.1, True), (0.6, True), (0.5, False), (0.9, False)]), 0.75)
+        self.assertIsNone(auc([(0.3, False)]))

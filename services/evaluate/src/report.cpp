@@ -172,11 +172,11 @@ void write_run_tables(const fs::path& out_dir, const RunResult& run) {
 
   const fs::path errors_path = out_dir / (run.name + "_pose_errors.csv");
   auto errors = open_output(errors_path);
-  errors << "frame,groundtruth_id,predicted_id,translation_mm,rotation_deg\n";
+  errors << "frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,observable_rotation_deg\n";
   for (const auto& o : run.objects) {
     for (std::size_t k = 0; k < o.frames.size(); ++k) {
       errors << o.frames[k] << ',' << o.groundtruth_id << ',' << o.predicted_id << ',' << o.errors[k].translation_mm
-             << ',' << o.errors[k].rotation_deg << '\n';
+             << ',' << o.errors[k].rotation_deg << ',' << o.errors[k].observable_rotation_deg << '\n';
     }
   }
   close_output(errors, errors_path);
