@@ -257,9 +257,4 @@ float ParticleFilter::effective_sample_size() const {
   return sum_sq > 0.0 ? static_cast<float>(1.0 / sum_sq) : 0.f;
 }
 
-float ParticleFilter::confidence() const {
-  if (particles_.empty()) return 0.f;
-  return std::min(1.f, effective_sample_size() / static_cast<float>(particles_.size()));
-}
-
 }  // namespace mfot

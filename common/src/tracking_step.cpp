@@ -23,6 +23,11 @@ void TrackingStepOptions::validate() const {
                                 std::to_string(hypothesis.margin));
   }
   occlusion.validate();
+  fit.validate();
+  if (!(hold_confidence_half_life >= 1.f && hold_confidence_half_life <= 100000.f)) {
+    throw std::invalid_argument("TrackingStepOptions.hold_confidence_half_life must be in [1, 100000] frames, got " +
+                                std::to_string(hold_confidence_half_life));
+  }
   if (!(hold_occluded_share >= 0.f && hold_occluded_share <= 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
                                 std::to_string(hold_occluded_share));
@@ -34,7 +39,7 @@ void TrackingStepOptions::validate() const {
 }
 
 TrackingStep::TrackingStep(const TrackingStepOptions& options)
-    : options_(validated(options)), occlusion_(options.occlusion) {}
+    : options_(validated(options)), occlusion_(options.occlusion), fit_(options.fit) {}
 
 TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectModel& model,
                                        const Eigen::AlignedBox3f& model_box, ParticleFilter& filter,
@@ -57,6 +62,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
       hypothesis_.colors.clear();
       result.estimate = filter.hold();
       result.held = true;
+      result.confidence =
+          last_confidence_ * std::exp2(-static_cast<float>(held_in_row_) / options_.hold_confidence_half_life);
       return result;
     }
   }
@@ -67,6 +74,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
   result.estimate = filter.step(hypothesis_, likelihood);
+  result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
 }
 

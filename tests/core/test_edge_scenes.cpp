@@ -2,6 +2,7 @@
 // ParticleFilter + CPU JCSD likelihood per object -> ObjectManager): nothing in view, a single
 // measured pixel, non-finite input, an object leaving the view, and twenty objects at once.
 
+#include "mfot/estimate_fit.hpp"
 #include "mfot/hypothesis.hpp"
 #include "mfot/jcsd_likelihood.hpp"
 #include "mfot/object_manager.hpp"
@@ -44,7 +45,7 @@ class CorePipeline {
       select_hypothesis_data(scene_, features_, tracker.box, tracker.filter->estimate(), HypothesisOptions{},
                              hypothesis_);
       const Pose& estimate = tracker.filter->step(hypothesis_, *tracker.likelihood);
-      estimates[id] = {estimate, tracker.filter->confidence()};
+      estimates[id] = {estimate, fit_.fit(hypothesis_, manager_.objects().at(id).model, tracker.box, estimate)};
     }
     const ObjectManagerFrame& result = manager_.process(scene_, clusters_, estimates);
     for (const std::int32_t id : result.retired) trackers_.erase(id);
@@ -80,6 +81,7 @@ class CorePipeline {
   std::vector<std::int32_t> clusters_;
   std::vector<SmrFeature> features_;
   HypothesisData hypothesis_;
+  EstimateFit fit_;
 };
 
 test_scene::Frame empty_frame(int width = 640, int height = 480) {

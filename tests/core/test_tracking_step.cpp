@@ -106,10 +106,26 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
   EXPECT_TRUE(r.estimate.rotation.isApprox(before.rotation));
   EXPECT_TRUE(filter.velocity().isZero());
 
+  EXPECT_EQ(r.confidence, 0.f);  // nothing seen yet: nothing to be confident of
+
   const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
   const TrackingStepResult back =
       step.track(visible, setup.model, box, filter, likelihood);
   EXPECT_FALSE(back.held);
+  EXPECT_GT(back.confidence, 0.8f);
+  // Hidden again: the confidence halves every hold_confidence_half_life holds in a row.
+  const TrackingStepOptions options = occlusion_aware();
+  float previous = back.confidence;
+  for (int held = 1; held <= 2 * static_cast<int>(options.hold_confidence_half_life); ++held) {
+    const TrackingStepResult h = step.track(hidden, setup.model, box, filter, likelihood);
+    ASSERT_TRUE(h.held);
+    EXPECT_LT(h.confidence, previous);
+    previous = h.confidence;
+  }
+  EXPECT_NEAR(previous, 0.25f * back.confidence, 1e-4f);
+  const TrackingStepResult again = step.track(visible, setup.model, box, filter, likelihood);
+  EXPECT_FALSE(again.held);
+  EXPECT_GT(again.confidence, 0.8f);
   EXPECT_EQ(back.occluded_share, 0.f);
   EXPECT_EQ(back.hypothesis_points, visible.size());
   EXPECT_LT(test::translation_error(back.estimate, setup.truth), 0.005f);
@@ -215,6 +231,12 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
   o.max_hold_frames = 0;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.hold_confidence_half_life = 0.5f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.fit.match_distance = 0.5f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
   o.occlusion.window = 0.f;

@@ -109,10 +109,6 @@ class ParticleFilter {
   std::span<const float> scores() const { return scores_; }    // raw s_i of the last step
   // 1 / sum w_i^2 of the current weights, in [1, N].
   float effective_sample_size() const;
-  // effective_sample_size() / N in (0, 1]: the share of particles that effectively support the
-  // estimate. Near 1 when most hypotheses explain the data about as well as the best one, low when
-  // only a few do (weights from 3.21 span [exp(-lambda), 1] before normalisation).
-  float confidence() const;
   const ParticleFilterOptions& options() const { return options_; }
 
  private:

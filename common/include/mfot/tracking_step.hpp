@@ -4,6 +4,7 @@
 // mfot departs from the thesis"): the thesis scores every scene point near the last estimate, so a
 // hand passing over an object pulls its filter onto the hand.
 
+#include "mfot/estimate_fit.hpp"
 #include "mfot/hypothesis.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/occlusion.hpp"
@@ -35,6 +36,11 @@ struct TrackingStepOptions {
   // where it was held): past this, the filter steps on every point in the margin, as in the
   // thesis, until the share drops below hold_occluded_share again.
   int max_hold_frames = 45;
+  // How the confidence of a stepped estimate is measured (EstimateFit).
+  EstimateFitOptions fit;
+  // A held frame's confidence is the last stepped frame's halved every this many holds in a row:
+  // a hidden object may be moving (carried behind the hand). Frames, [1, 100000].
+  float hold_confidence_half_life = 15.f;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -45,6 +51,9 @@ struct TrackingStepResult {
   float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
   std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
+  // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
+  // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
+  float confidence = 0.f;
 };
 
 // Steps of track():
@@ -55,7 +64,8 @@ struct TrackingStepResult {
 //     model at the last estimate;
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
-//  5. step the filter with the likelihood on what is left.
+//  5. step the filter with the likelihood on what is left;
+//  6. measure the confidence of the new estimate on the same points (EstimateFit).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
 // buffers, reused across frames.
@@ -74,13 +84,18 @@ class TrackingStep {
 
   const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
   // Forgets the holds in a row (a new object, or its filter reset).
-  void reset() { held_in_row_ = 0; }
+  void reset() {
+    held_in_row_ = 0;
+    last_confidence_ = 0.f;
+  }
 
  private:
   TrackingStepOptions options_;
   OcclusionTest occlusion_;
   HypothesisData hypothesis_;
+  EstimateFit fit_;
   int held_in_row_ = 0;
+  float last_confidence_ = 0.f;
 };
 
 }  // namespace mfot

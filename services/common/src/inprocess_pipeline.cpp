@@ -40,7 +40,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   std::map<std::int32_t, ObjectEstimate> estimates;
   for (auto& [id, tracker] : trackers_) {
     const TrackingStepResult step = tracker->track(scene.cloud);
-    estimates[id] = {step.estimate, tracker->filter().confidence()};
+    estimates[id] = {step.estimate, step.confidence};
     spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
                   "t [{:.3f} {:.3f} {:.3f}]",
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,

@@ -89,6 +89,10 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.occlusion.window = s.get<float>("occlusion_window", 1e-4f, 0.1f);
   c.step.occlusion.own_surface_radius =
       s.get<float>("own_surface_radius", 0.f, 0.1f);
+  c.step.fit.match_distance = s.get<float>("confidence_match_distance", 1e-4f, 0.1f);
+  c.step.fit.claim_margin = s.get<float>("confidence_claim_margin", 0.f, 0.1f);
+  c.step.fit.min_claimed_points = s.get<int>("confidence_min_points", 1, 1000000);
+  c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =

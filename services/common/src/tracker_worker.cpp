@@ -107,7 +107,7 @@ void TrackerWorker::track(const Scene& scene) {
   msg.worker_id = identity_.worker_id;
   msg.model_version = tracker_.model_version();
   pose_to_arrays(result.estimate, msg.position, msg.orientation);
-  msg.confidence = tracker_.filter().confidence();
+  msg.confidence = result.confidence;
   msg.effective_sample_size = tracker_.filter().effective_sample_size();
   msg.num_particles = config_.filter.num_particles;
   msg.num_hypothesis_points = static_cast<std::int32_t>(result.hypothesis_points);
