@@ -129,11 +129,14 @@ TEST(Simulator, RandomScenarioFollowsItsOptions) {
   EXPECT_FALSE(other.poses(0)[0].pose.translation.isApprox(Simulator(options_for("random", 3)).poses(0)[0].pose.translation));
 }
 
-// Frame 0 of every scenario: every object is visible, and objects (and hands) are pairwise
-// separated by at least 2 cm in the measured point cloud.
+// Frame 0 of every scenario (the seeded scenes for several seeds): every object is visible, and
+// objects (and hands) are pairwise separated by at least 2 cm in the measured point cloud.
 TEST(Simulator, ObjectsSeparatedAndVisibleAtFrameZero) {
   std::vector<SimulatorOptions> cases;
   for (const std::string& name : scenario_names()) cases.push_back(options_for(name));
+  for (const std::string& name : kRotationScenarios) {
+    for (const std::uint64_t seed : {2u, 3u, 4u}) cases.push_back(options_for(name, seed));
+  }
   for (std::uint64_t seed = 10; seed < 13; ++seed) {
     SimulatorOptions o = options_for("random", seed);
     o.scenario.num_objects = 6;
