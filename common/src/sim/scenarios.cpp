@@ -492,7 +492,7 @@ Script tumble_scenario(const ScenarioOptions& o) {
   // Tumble and rock compose into no single slerp: keyed at every frame.
   for (int k = 1; k <= frames; ++k) {
     const double tau = static_cast<double>(k) / frames;
-    const auto s = static_cast<float>(tau * tau * (3.0 - 2.0 * tau));
+    const auto s = static_cast<float>(progress(Profile::eased, tau));
     Iso pose = lifted;
     pose.linear() = Eigen::AngleAxisf(s * tumble, tumble_axis).toRotationMatrix() *
                     Eigen::AngleAxisf(rock * std::sin(2.0f * kPi * s), rock_axis).toRotationMatrix() * rest.linear();

@@ -14,6 +14,8 @@ constexpr float kPalmHalfThickness = 0.015f;
 
 double round_up_to_frames(double seconds) { return std::ceil(seconds * kFps - 1e-6) / kFps; }
 
+}  // namespace
+
 double progress(Profile profile, double tau) {
   switch (profile) {
     case Profile::linear: return tau;
@@ -23,8 +25,6 @@ double progress(Profile profile, double tau) {
   }
   return tau * tau * (3.0 - 2.0 * tau);
 }
-
-}  // namespace
 
 Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau, Profile profile) {
   const auto s = static_cast<float>(progress(profile, tau));

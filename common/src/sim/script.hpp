@@ -31,6 +31,9 @@ enum class Profile {
   ease_out,  // 2 tau - tau^2: starts at speed, ends at rest
 };
 
+// s(tau) of profile.
+double progress(Profile profile, double tau);
+
 struct Keyframe {
   double t = 0.0;
   Iso pose = Iso::Identity();                        // body -> world
