@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
   bool no_noise = false;
   double depth_scale = 5000.0;
   app.add_option("output", output, "folder to create (must not already hold a dataset)")->required();
-  app.add_option("--scenario", options.scenario.name, "stack | contact | rotate | static | random")
+  app.add_option("--scenario", options.scenario.name,
+                 "stack | contact | rotate | apart | static | random | spin | tumble | slide | cross")
       ->check(CLI::IsMember(mfot::sim::scenario_names()));
   app.add_option("--seed", options.scenario.seed, "scenario and sensor-noise seed");
   app.add_option("--frames", options.scenario.num_frames, "frames to render, 0 = the scenario's own length");

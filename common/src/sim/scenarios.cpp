@@ -1,10 +1,11 @@
-// The simulator's scenarios (thesis chapter 4's experiments plus a seeded random scene).
+// The simulator's scenarios (thesis chapter 4's experiments, a seeded random scene and seeded
+// hands-free rotation scenes).
 //
 // Layout conventions: world z = 0 is the table top, objects stand upright on it (centre height =
 // half height) or on each other, and every pair of objects present at frame 0 is at least 4 cm
 // apart, except in `apart`, whose objects start stacked and touching. Hands wait outside the image at frame 0, reach in, grasp from above (palm on the top
-// face, fingers over a side face) and carry objects rigidly. Contacts are exact to 0.5 mm
-// (touching, never overlapping).
+// face, fingers over a side face) and carry objects rigidly; in the hands-free scenarios objects
+// move by keyframes alone. Contacts are exact to 0.5 mm (touching, never overlapping).
 
 #include "script.hpp"
 
@@ -254,8 +255,9 @@ float closest_approach(const Eigen::Vector2f& a0, const Eigen::Vector2f& a1, con
   return (d0 + s * dd).norm();
 }
 
+constexpr std::uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
+
 Script random_scenario(const ScenarioOptions& o, int attempt) {
-  constexpr std::uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
   Draw draw(o.seed * kGolden + static_cast<std::uint64_t>(attempt) + 0x5eedULL);
   const double duration = (o.num_frames > 0 ? o.num_frames : 600) / kFps;
   constexpr float kXMin = -0.34f, kXMax = 0.34f, kYMin = -0.16f, kYMax = 0.40f;
@@ -371,6 +373,203 @@ Script random_scenario(const ScenarioOptions& o, int attempt) {
   return b.finish(duration);
 }
 
+// ---- hands-free rotation scenarios (issue 17) ----------------------------------------------
+// Objects move by keyframes alone, sliding on the table or floating above it as on an invisible
+// holder. The scenario seed picks the scene (turn directions, amounts and rates within each
+// scenario's range, start yaws, paths); each scenario salts it so their draws differ.
+
+Draw scene_draw(const ScenarioOptions& o, std::uint64_t salt) { return Draw(o.seed * kGolden + salt); }
+
+float random_sign(Draw& draw) { return draw(0.0, 1.0) < 0.5 ? -1.0f : 1.0f; }
+
+double at_frame(int frame) { return frame / kFps; }
+
+constexpr float kDeg = kPi / 180.0f;
+
+// A box slides on a straight line while turning about its vertical axis at steady rates of about
+// 45, 90 and 180 deg/s (ramping between them at constant acceleration, from and back to rest),
+// behind it a box and a can stand still.
+Script spin_scenario(const ScenarioOptions& o) {
+  Draw draw = scene_draw(o, 0x5b1eULL);
+  ScriptBuilder b;
+  const Eigen::Vector3f size(0.10f, 0.07f, 0.12f);
+  const BodyInfo spinner_info = make_box(1, size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan});
+  // The slide: 16-28 cm across the front, within 15 degrees of the x axis, either way.
+  const float heading = draw.f(-15.0, 15.0) * kDeg + (draw(0.0, 1.0) < 0.5 ? kPi : 0.0f);
+  const float length = draw.f(0.16, 0.28);
+  const Eigen::Vector2f centre(draw.f(-0.05, 0.05), draw.f(-0.04, 0.02));
+  const Eigen::Vector2f from = centre - 0.5f * length * Eigen::Vector2f(std::cos(heading), std::sin(heading));
+  const Eigen::Vector2f to = 2.0f * centre - from;
+  const float start_yaw = draw.f(-kPi, kPi);
+  const float direction = random_sign(draw);
+  const double slow = draw(0.96, 1.0) * 45.0 * kDeg;  // rad/s; then twice and four times that
+  const int steady_slow = 57 + draw.index(16), steady_medium = 57 + draw.index(16), steady_fast = 45 + draw.index(16);
+
+  const int spinner = b.add_body(spinner_info, at(from.x(), from.y(), 0.5f * size.z(), start_yaw));
+  const float side = random_sign(draw);
+  b.add_body(make_box(2, {0.08f, 0.06f, 0.10f}, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker,
+                      kWhite, 0.04f),
+             at(side * draw.f(0.10, 0.24), draw.f(0.24, 0.32), 0.05f, draw.f(-kPi, kPi)));
+  b.add_body(make_can(3, 0.066f, 0.12f, kBlue, kWhite, kGrey), at(-side * draw.f(0.10, 0.24), draw.f(0.24, 0.32), 0.06f));
+
+  // The turn as segments (frames, angle, profile); linear ones at most 60 degrees each, so every
+  // slerp goes the intended way, and ramps between rates one frame per segment.
+  struct Segment {
+    int frames;
+    double angle;
+    Profile profile;
+  };
+  std::vector<Segment> turn;
+  auto steady = [&](int frames, double rate) {
+    const int per_segment = std::max(1, static_cast<int>(60.0 * kDeg / (rate / kFps)));
+    for (int done = 0; done < frames; done += per_segment) {
+      const int n = std::min(per_segment, frames - done);
+      turn.push_back({n, rate * n / kFps, Profile::linear});
+    }
+  };
+  auto ramp = [&](int frames, double rate0, double rate1) {
+    for (int k = 0; k < frames; ++k) steady(1, rate0 + (rate1 - rate0) * (k + 0.5) / frames);
+  };
+  constexpr int kRampFrames = 15, kFastRampFrames = 24, kStopFrames = 30;
+  turn.push_back({kRampFrames, 0.5 * slow * kRampFrames / kFps, Profile::ease_in});
+  steady(steady_slow, slow);
+  ramp(kRampFrames, slow, 2.0 * slow);
+  steady(steady_medium, 2.0 * slow);
+  ramp(kFastRampFrames, 2.0 * slow, 4.0 * slow);
+  steady(steady_fast, 4.0 * slow);
+  turn.push_back({kStopFrames, 0.5 * 4.0 * slow * kStopFrames / kFps, Profile::ease_out});
+
+  // The slide advances with the turn: the box's centre is on the line at the share of the turn done.
+  double total = 0.0;
+  for (const Segment& s : turn) total += s.angle;
+  auto pose_after = [&](double angle) {
+    const Eigen::Vector2f p = from + static_cast<float>(angle / total) * (to - from);
+    return at(p.x(), p.y(), 0.5f * size.z(), start_yaw + direction * static_cast<float>(angle));
+  };
+  int frame = 24;
+  b.key(spinner, at_frame(frame), pose_after(0.0));
+  double angle = 0.0;
+  for (const Segment& s : turn) {
+    frame += s.frames;
+    angle += s.angle;
+    b.key(spinner, at_frame(frame), pose_after(angle), s.profile);
+  }
+  b.wait(at_frame(frame));  // keys leave the timeline where it was
+  return b.finish(1.2);
+}
+
+// A box rises 8-12 cm off the table (its lowest point stays 6 cm or more above it), tumbles 2.25-2.75 turns about one of its horizontal edges'
+// directions while rocking +-1.1-1.2 rad about the other and drifting sideways, and settles on
+// the table again (a whole number of quarter turns: it lands on a face). A can stands behind.
+Script tumble_scenario(const ScenarioOptions& o) {
+  Draw draw = scene_draw(o, 0x7a3b1eULL);
+  ScriptBuilder b;
+  const Eigen::Vector3f size(0.09f, 0.06f, 0.12f);
+  const BodyInfo info = make_box(1, size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan});
+  const Eigen::Vector2f start(draw.f(-0.16, 0.16), draw.f(-0.02, 0.06));
+  const float start_yaw = draw.f(-kPi, kPi);
+  const float lift = draw.f(0.08, 0.12);
+  const float drift = (start.x() > 0.0f ? -1.0f : 1.0f) * draw.f(0.08, 0.14);  // towards the middle: stays in view
+  const int quarter_turns = 9 + draw.index(3);
+  const float tumble = random_sign(draw) * quarter_turns * 0.5f * kPi;
+  const float rock = random_sign(draw) * draw.f(1.1, 1.2);  // one cycle: +rock, -rock, back to 0
+
+  const Iso rest = at(start.x(), start.y(), 0.5f * size.z(), start_yaw);
+  const int box = b.add_body(info, rest);
+  b.add_body(make_can(2, 0.066f, 0.12f, kOrange, kBlack, kGrey),
+             at(draw.f(-0.20, 0.20), draw.f(0.28, 0.34), 0.06f));
+
+  b.wait(0.5);
+  const Iso lifted = raised(rest, lift);
+  b.move({{box, lifted}}, 1.0);
+  // Eased over the whole tumble (at rest at both ends); its length keeps the peak angular speed,
+  // 1.5 times the mean of tumble and rock together, at 175 deg/s.
+  const Eigen::Vector3f tumble_axis = rest.linear() * Eigen::Vector3f::UnitX();
+  const Eigen::Vector3f rock_axis = rest.linear() * Eigen::Vector3f::UnitY();
+  const double peak = 1.5 * std::hypot(tumble, 2.0 * kPi * rock);
+  const int frames = static_cast<int>(std::ceil(peak / (175.0 * kDeg) * kFps));
+  const double start_s = b.now();
+  // Tumble and rock compose into no single slerp: keyed at every frame.
+  for (int k = 1; k <= frames; ++k) {
+    const double tau = static_cast<double>(k) / frames;
+    const auto s = static_cast<float>(progress(Profile::eased, tau));
+    Iso pose = lifted;
+    pose.linear() = Eigen::AngleAxisf(s * tumble, tumble_axis).toRotationMatrix() *
+                    Eigen::AngleAxisf(rock * std::sin(2.0f * kPi * s), rock_axis).toRotationMatrix() * rest.linear();
+    pose.translation().x() += s * drift;
+    b.key(box, start_s + at_frame(k), pose, Profile::linear);
+  }
+  b.wait(at_frame(frames));
+  // Lying on the face that the quarter turns put down.
+  Iso landed = b.pose(box);
+  landed.translation().z() = 0.5f * (landed.linear().row(2).cwiseAbs() * size).value();
+  b.move({{box, landed}}, 1.0);
+  return b.finish(0.5);
+}
+
+// A box slides across the table turning 0.6-0.8 rad and is pushed against a side face of another
+// box (faces touching to 0.5 mm), stays there, then slides away turning back.
+Script slide_scenario(const ScenarioOptions& o) {
+  Draw draw = scene_draw(o, 0x511deULL);
+  ScriptBuilder b;
+  const float gap = 0.0005f;
+  const Eigen::Vector3f mover_size(0.08f, 0.07f, 0.11f), anchor_size(0.10f, 0.08f, 0.10f);
+  const float side = random_sign(draw);  // the anchor face touched: its -x or +x face
+  const float anchor_yaw = draw.f(-0.3, 0.3);
+  const Iso anchor = at(-side * draw.f(0.04, 0.10), draw.f(0.08, 0.18), 0.5f * anchor_size.z(), anchor_yaw);
+  // Touching: the mover's x faces parallel to the anchor's, offset along the face by up to 1.5 cm.
+  const Iso contact = anchor * at(side * (0.5f * (anchor_size.x() + mover_size.x()) + gap), draw.f(-0.015, 0.015),
+                                  0.5f * (mover_size.z() - anchor_size.z()));
+  // Where it comes from and goes to: 16-22 cm (12-20 cm) out from the face within 0.4 (0.6) rad
+  // of its normal. Its corner cannot reach the face before it: the distance to go along the
+  // normal stays larger than the half width times the angle still to turn.
+  auto away = [&](float distance, float angle, float yaw_offset) {
+    const Eigen::Vector3f step = anchor.linear() * Eigen::Vector3f(side * std::cos(angle), std::sin(angle), 0.0f);
+    Iso pose = contact;
+    pose.translation() += distance * step;
+    pose.linear() = Eigen::AngleAxisf(yaw_offset, Eigen::Vector3f::UnitZ()).toRotationMatrix() * contact.linear();
+    return pose;
+  };
+  const float turn = random_sign(draw) * draw.f(0.6, 0.8);
+  const Iso start = away(draw.f(0.16, 0.22), draw.f(-0.4, 0.4), -turn);
+  const Iso end = away(draw.f(0.12, 0.20), draw.f(-0.6, 0.6), -turn * draw.f(0.6, 1.0));
+
+  const int mover = b.add_body(make_box(1, mover_size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}), start);
+  b.add_body(make_box(2, anchor_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
+             anchor);
+
+  b.wait(1.5);
+  b.move({{mover, contact}}, draw(2.5, 3.0));
+  b.wait(draw(2.0, 2.5));
+  b.move({{mover, end}}, draw(2.5, 3.0));
+  return b.finish(1.5);
+}
+
+// A tall box slides across the front turning 0.7-0.9 rad, passing between the camera and another
+// box (hiding much of it), and back again turning 0.5-0.9 rad.
+Script cross_scenario(const ScenarioOptions& o) {
+  Draw draw = scene_draw(o, 0xc4055ULL);
+  ScriptBuilder b;
+  const Eigen::Vector3f mover_size(0.10f, 0.07f, 0.16f), hidden_size(0.09f, 0.07f, 0.10f);
+  const float from_x = random_sign(draw) * 0.27f;
+  const float start_yaw = draw.f(-kPi, kPi);
+  const float turn = random_sign(draw) * draw.f(0.7, 0.9);
+  const float z = 0.5f * mover_size.z();
+  const Iso start = at(from_x, draw.f(0.04, 0.10), z, start_yaw);
+  const Iso across = at(-from_x, draw.f(0.04, 0.10), z, start_yaw + turn);
+  const Iso back = at(from_x * draw.f(0.7, 1.0), draw.f(0.04, 0.10), z, start_yaw + turn - turn * draw.f(0.6, 1.0));
+
+  const int mover = b.add_body(make_box(1, mover_size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}), start);
+  b.add_body(make_box(2, hidden_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::stripes, kWhite, 0.04f),
+             at(draw.f(-0.08, 0.08), draw.f(0.26, 0.32), 0.5f * hidden_size.z(), draw.f(-0.5, 0.5)));
+
+  b.wait(1.0);
+  b.move({{mover, across}}, draw(4.0, 5.0));
+  b.wait(1.0);
+  b.move({{mover, back}}, draw(4.0, 5.0));
+  return b.finish(0.5);
+}
+
 }  // namespace
 
 World make_world() {
@@ -450,7 +649,12 @@ Script build_scenario(const ScenarioOptions& options, int attempt) {
   if (options.name == "rotate") return rotate_scenario();
   if (options.name == "static") return static_scenario();
   if (options.name == "random") return random_scenario(options, attempt);
-  throw std::invalid_argument("ScenarioOptions.name must be one of stack, contact, rotate, apart, static, random");
+  if (options.name == "spin") return spin_scenario(options);
+  if (options.name == "tumble") return tumble_scenario(options);
+  if (options.name == "slide") return slide_scenario(options);
+  if (options.name == "cross") return cross_scenario(options);
+  throw std::invalid_argument(
+      "ScenarioOptions.name must be one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross");
 }
 
 }  // namespace mfot::sim::detail

@@ -16,8 +16,18 @@ double round_up_to_frames(double seconds) { return std::ceil(seconds * kFps - 1e
 
 }  // namespace
 
-Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau) {
-  const auto s = static_cast<float>(tau * tau * (3.0 - 2.0 * tau));
+double progress(Profile profile, double tau) {
+  switch (profile) {
+    case Profile::linear: return tau;
+    case Profile::ease_in: return tau * tau;
+    case Profile::ease_out: return tau * (2.0 - tau);
+    case Profile::eased: break;
+  }
+  return tau * tau * (3.0 - 2.0 * tau);
+}
+
+Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau, Profile profile) {
+  const auto s = static_cast<float>(progress(profile, tau));
   const Eigen::Quaternionf qa(a.rotation()), qb(b.rotation());
   const Eigen::Quaternionf q = qa.slerp(s, qb).normalized();
   const Eigen::Vector3f pa = a * pivot, pb = b * pivot;
@@ -56,7 +66,7 @@ Iso pose_at(const Script& script, int b, double t) {
   const auto next = std::upper_bound(keys.begin(), keys.end(), t, [](double v, const Keyframe& k) { return v < k.t; });
   const Keyframe& k1 = *next;
   const Keyframe& k0 = *(next - 1);
-  return interpolate(k0.pose, k1.pose, k1.pivot, (t - k0.t) / (k1.t - k0.t));
+  return interpolate(k0.pose, k1.pose, k1.pivot, (t - k0.t) / (k1.t - k0.t), k1.profile);
 }
 
 int ScriptBuilder::add_body(BodyInfo info, const Iso& world_pose) {
@@ -70,13 +80,13 @@ int ScriptBuilder::add_body(BodyInfo info, const Iso& world_pose) {
   return static_cast<int>(current_.size()) - 1;
 }
 
-void ScriptBuilder::key(int body, double t, const Iso& pose) {
+void ScriptBuilder::key(int body, double t, const Iso& pose, Profile profile) {
   auto& keys = script_.bodies[body].keys;
   if (!keys.empty() && t < keys.back().t) throw std::logic_error("ScriptBuilder::key: keyframes out of order");
   const Eigen::Vector3f pivot = carrying_[body] >= 0
                                     ? Eigen::Vector3f(script_.bodies[carrying_[body]].attachments.back().offset.translation())
                                     : Eigen::Vector3f::Zero();
-  keys.push_back({t, pose, pivot});
+  keys.push_back({t, pose, pivot, profile});
   current_[body] = pose;
 }
 

@@ -3,10 +3,12 @@
 //
 // A body's world pose over time is either keyframe interpolation or, while it is carried, the
 // carrying hand's pose times a fixed offset (so carried objects move rigidly with the hand).
-// Between keyframes the pose follows an ease-in/ease-out profile s = 3 tau^2 - 2 tau^3 (zero
-// velocity at every keyframe): the rotation is slerped with s and a pivot point of the body moves
-// on a straight line with s (the pivot is the carried object's centre for a carrying hand, so an
-// object turned in the hand rotates about its own centre; the body origin otherwise).
+// Between keyframes the pose follows the profile s(tau) of the segment's end key, by default
+// ease-in/ease-out s = 3 tau^2 - 2 tau^3 (zero velocity at every keyframe): the rotation is slerped
+// with s and a pivot point of the body moves on a straight line with s (the pivot is the carried
+// object's centre for a carrying hand, so an object turned in the hand rotates about its own
+// centre; the body origin otherwise). Slerp takes the shorter way: keys of one turn must be less
+// than 180 degrees apart.
 
 #include "mfot/sim/simulator.hpp"
 
@@ -19,10 +21,24 @@ namespace mfot::sim::detail {
 
 using Iso = Eigen::Isometry3f;
 
+// Progress s(tau) of a segment over its normalised time tau in [0, 1]. Chained so that the speeds
+// meet (a segment of angle A over T ends ease_in at 2 A / T, runs linear at A / T, starts ease_out
+// at 2 A / T), they turn at constant velocity between a start and an end at rest.
+enum class Profile {
+  eased,     // 3 tau^2 - 2 tau^3: at rest at both ends
+  linear,    // tau: constant velocity
+  ease_in,   // tau^2: starts at rest, ends at speed
+  ease_out,  // 2 tau - tau^2: starts at speed, ends at rest
+};
+
+// s(tau) of profile.
+double progress(Profile profile, double tau);
+
 struct Keyframe {
   double t = 0.0;
   Iso pose = Iso::Identity();                        // body -> world
   Eigen::Vector3f pivot = Eigen::Vector3f::Zero();   // body frame; used by the segment ending here
+  Profile profile = Profile::eased;                  // of the segment ending here
 };
 
 struct Attachment {
@@ -46,7 +62,8 @@ struct Script {
 Iso pose_at(const Script& script, int b, double t);
 
 // Peak speeds of the scripted motion (ease-in/ease-out peak is 1.5x the mean): the builder picks
-// segment durations so that neither is exceeded by any moving body's origin.
+// segment durations so that neither is exceeded by any moving body's origin. Keys added directly
+// set their own pace (spin and tumble turn faster).
 constexpr double kMaxLinearSpeed = 0.27;         // m/s
 constexpr double kMaxAngularSpeed = 1.40;        // rad/s (80 deg/s)
 constexpr double kFps = 30.0;
@@ -71,8 +88,9 @@ class ScriptBuilder {
   void grasp(int hand, int object);
   void release(int hand);
   void wait(double seconds);
-  // Adds a keyframe at time t without moving the timeline (independent per-body schedules).
-  void key(int body, double t, const Iso& pose);
+  // Adds a keyframe at time t without moving the timeline (independent per-body schedules);
+  // profile shapes the segment that ends at it.
+  void key(int body, double t, const Iso& pose, Profile profile = Profile::eased);
   // World pose of body at time t under the keyframes and grasps added so far.
   Iso scripted_pose(int body, double t) const { return pose_at(script_, body, t); }
 
@@ -89,8 +107,8 @@ class ScriptBuilder {
 // Mean-speed-safe duration of the ease-in/ease-out move from a to b with the given pivot.
 double min_move_duration(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot);
 
-// Interpolated pose between a and b at normalised time tau in [0, 1] (ease-in/ease-out).
-Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau);
+// Interpolated pose between a and b at normalised time tau in [0, 1].
+Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau, Profile profile = Profile::eased);
 
 // ---- bodies ------------------------------------------------------------------------------
 BodyInfo make_box(int id, const Eigen::Vector3f& size, const std::array<Rgb8, 6>& faces, Pattern pattern = Pattern::solid,

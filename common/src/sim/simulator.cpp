@@ -28,12 +28,14 @@ constexpr int kLayoutAttempts = 32;
 
 }  // namespace
 
-std::vector<std::string> scenario_names() { return {"stack", "contact", "rotate", "apart", "static", "random"}; }
+std::vector<std::string> scenario_names() {
+  return {"stack", "contact", "rotate", "apart", "static", "random", "spin", "tumble", "slide", "cross"};
+}
 
 void ScenarioOptions::validate() const {
   const auto names = scenario_names();
   require(std::find(names.begin(), names.end(), name) != names.end(), "ScenarioOptions.name",
-          "one of stack, contact, rotate, apart, static, random");
+          "one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross");
   require(num_frames >= 0 && num_frames <= 1000000, "ScenarioOptions.num_frames", "in [0, 1000000]");
   require(num_objects >= 1 && num_objects <= 16, "ScenarioOptions.num_objects", "in [1, 16]");
   require(speed > 0.0f && speed <= 0.2f, "ScenarioOptions.speed", "in (0, 0.2] m/s");

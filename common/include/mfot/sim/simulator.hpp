@@ -1,16 +1,21 @@
 #pragma once
 // Table-top RGB-D scene simulator with ground truth: the built-in input of mfot that lets the
 // tracker run, be tested and be measured without a camera (thesis chapter 4's experiments:
-// stacking, contact, rotation, static scene, plus a seeded random scene).
+// stacking, contact, rotation, static scene, plus a seeded random scene, plus hands-free scenes of
+// rotating, tumbling and crossing objects: spin, tumble, slide, cross).
 //
 // World frame: table top is z = 0, x to the right, y away from the camera, z up. The camera looks
 // down at the table centre from 1 m away at 45 degrees (like a robot head). Boxes (faces of
 // distinct colours, some striped or checkered) and cylinders (cans) rest on the table or on each
 // other; rigid skin-coloured hands (palm + fingers box, one cylinder for forearm and upper arm)
 // reach in from the image sides, grasp objects (grasped objects move rigidly with the hand) and
-// leave again. Motion is piecewise with smooth (ease-in/ease-out) interpolation and peak speeds of
-// at most 0.3 m/s and 90 deg/s. Every frame is rendered by analytic ray casting with a Kinect-like
-// sensor model (scene.hpp) and comes with every body's pose and a label image.
+// leave again. In random, spin, tumble, slide and cross objects move by themselves, sliding on the
+// table or (tumble) floating above it as on an invisible holder; random's hands only pass over
+// them. Motion is piecewise and smooth (ease-in/ease-out; spin and tumble also turn at constant
+// velocity between ramps, without velocity steps) with peak speeds of at most 0.3 m/s and 90 deg/s,
+// except spin's and tumble's turns: up to 180 deg/s. Every frame is rendered by analytic ray
+// casting with a Kinect-like sensor model (scene.hpp) and comes with every body's pose and a label
+// image.
 //
 // Body frames: an object's origin is its geometric centre (box / cylinder centre), axes along its
 // edges / cylinder axis; a hand's origin is its palm centre, x along the fingers, z out of the
@@ -26,9 +31,12 @@
 namespace mfot::sim {
 
 struct ScenarioOptions {
-  // One of scenario_names(): "stack", "contact", "rotate", "apart", "static", "random".
+  // One of scenario_names(): "stack", "contact", "rotate", "apart", "static", "random", "spin",
+  // "tumble", "slide", "cross".
   std::string name = "stack";
-  std::uint64_t seed = 1;  // sensor noise (all scenarios) and the random scenario's layout
+  // Sensor noise (all scenarios), the random scenario's layout, and spin's, tumble's, slide's and
+  // cross's scene (turn directions, amounts and rates, start yaws, paths).
+  std::uint64_t seed = 1;
   int num_frames = 0;      // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
   // The random scenario only:
   int num_objects = 3;     // [1, 16]
