@@ -52,6 +52,7 @@ void ObjectManagerOptions::validate() const {
                                 std::to_string(hidden_occluded_share));
   }
   occlusion.validate();
+  registration.validate();
   discovery.validate();
   join_split.validate();
   if (max_model_points < min_object_points) {
@@ -67,7 +68,8 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       detector_(options.new_objects),
       support_(options.support),
       occlusion_(options.occlusion),
-      wave_hash_(std::max(options.propagation_radius, 1e-3f)) {}
+      wave_hash_(std::max(options.propagation_radius, 1e-3f)),
+      registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                                                  std::span<const std::int32_t> cluster_of_point,
@@ -94,6 +96,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     }
   }
   frame_.created.clear();
+  frame_.registered.clear();
   frame_.retired.clear();
 
   // 1. estimates
@@ -144,7 +147,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id)};
+      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id), object.model, object.pose};
     }
     forget(id);
   }
@@ -370,6 +373,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   if (known != 0) {
     object.id = known;
     object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
+    if (registration_ && keep_frame(retired_.at(known), scene, free_points, object)) frame_.registered.push_back(known);
     retired_.erase(known);
   } else {
     object.id = next_id_++;
@@ -386,6 +390,37 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   birth_[object.id] = current_birth_;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
+}
+
+bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
+                               ManagedObject& object) {
+  registration_points_.points.clear();
+  registration_points_.colors.clear();
+  for (const int i : points) {
+    registration_points_.points.push_back(scene.positions[static_cast<std::size_t>(i)]);
+    registration_points_.colors.push_back(scene.colors[static_cast<std::size_t>(i)]);
+  }
+  registration_points_.features = compute_smr(registration_points_.colors, options_.smr);
+  const std::optional<Registration> found =
+      registration_->register_model(retired.model, registration_points_, retired.pose.rotation);
+  if (!found) return false;
+  // The remembered model first (its points win their voxels when thinning), then the new points
+  // in its frame.
+  const Eigen::Isometry3f camera_to_object = found->pose.isometry().inverse();
+  ObjectModel whole = retired.model;
+  for (std::size_t k = 0; k < registration_points_.points.size(); ++k) {
+    whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
+  }
+  whole.features.insert(whole.features.end(), registration_points_.features.begin(), registration_points_.features.end());
+  const std::vector<std::uint32_t> keep = even_subset(whole.cloud, options_.max_model_points);
+  object.model.cloud.clear();
+  object.model.features.clear();
+  for (const std::uint32_t k : keep) {
+    object.model.cloud.push_back(whole.cloud.positions[k], whole.cloud.colors[k]);
+    object.model.features.push_back(whole.features[k]);
+  }
+  object.pose = found->pose;
+  return true;
 }
 
 void ObjectManager::forget(std::int32_t id) {

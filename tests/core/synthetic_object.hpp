@@ -68,6 +68,23 @@ inline ColoredCloud make_test_object(float phase = 0.f, float spacing = 0.008f, 
                           textured ? &kSecond : nullptr, phase);
 }
 
+// The points of a box cloud (make_colored_box with edge lengths size, object frame) on the faces
+// that a camera at the origin sees when the box is at pose: its near side, camera frame.
+inline ColoredCloud seen_from_origin(const ColoredCloud& box, const Eigen::Vector3f& size, const Pose& pose) {
+  const Eigen::Vector3f half = 0.5f * size;
+  ColoredCloud seen;
+  for (std::size_t k = 0; k < box.size(); ++k) {
+    const Eigen::Vector3f& p = box.positions[k];
+    Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // outward, along the face's axis
+    for (int a = 0; a < 3; ++a) {
+      if (std::abs(std::abs(p[a]) - half[a]) < 1e-4f) normal[a] = p[a] > 0.f ? 1.f : -1.f;
+    }
+    const Eigen::Vector3f at = pose.isometry() * p;
+    if ((pose.rotation * normal).dot(at) < 0.f) seen.push_back(at, box.colors[k]);
+  }
+  return seen;
+}
+
 inline ObjectModel make_model(const ColoredCloud& cloud) {
   ObjectModel model;
   model.cloud = cloud;

@@ -1,4 +1,5 @@
 #include "mfot/object_manager.hpp"
+#include "synthetic_object.hpp"
 
 #include <gtest/gtest.h>
 
@@ -197,6 +198,56 @@ TEST(ObjectManager, AnObjectComingBackTakesItsIdBackAndADifferentOneDoesNot) {
   forgetful.process(scene.cloud, scene.cluster, {});
   for (int t = 0; t < 2; ++t) forgetful.process(remaining, cluster, unchanged(forgetful));
   EXPECT_EQ(forgetful.process(back, back_cluster, unchanged(forgetful)).created, (std::vector<std::int32_t>{3}));
+}
+
+TEST(ObjectManager, AReidentifiedObjectKeepsItsFrameAndModel) {
+  // The textured test box is seen, lost for two frames, and seen again moved and turned 60 degrees
+  // about the line of sight (the same faces show: its colours match). Its remembered model is
+  // registered on the new points: its frame moved with it.
+  const Eigen::Vector3f size(0.10f, 0.15f, 0.08f);
+  const ColoredCloud box = test::make_test_object(0.f, 0.008f, true);
+  const Pose before = test::make_pose(Eigen::Vector3f(0.f, 0.f, 0.9f), Eigen::Vector3f(1.f, 0.5f, 0.f), 0.6f);
+  Pose after = test::make_pose(Eigen::Vector3f(0.08f, -0.03f, 0.95f), Eigen::Vector3f::UnitZ(), 1.05f);
+  after.rotation = (after.rotation * before.rotation).normalized();
+  auto frame = [&](const Pose& pose) {
+    const ColoredCloud seen = test::seen_from_origin(box, size, pose);
+    return std::make_pair(seen, std::vector<std::int32_t>(seen.size(), 0));
+  };
+  auto run = [&](bool keep_frame) {
+    ObjectManagerOptions options;
+    options.support.max_frames = 2;
+    options.new_objects.confirm_frames = 1;
+    options.reidentify_register = keep_frame;
+    auto manager = std::make_unique<ObjectManager>(options);
+    const auto [first, first_cluster] = frame(before);
+    manager->process(first, first_cluster, {});
+    for (int t = 0; t < 2; ++t) manager->process(ColoredCloud{}, {}, unchanged(*manager));
+    EXPECT_TRUE(manager->objects().empty());
+    return manager;
+  };
+  const auto [back, back_cluster] = frame(after);
+
+  const auto manager = run(true);
+  ObjectManager reference;  // what the object's frame was: made from the first view alone
+  const auto [first, first_cluster] = frame(before);
+  reference.process(first, first_cluster, {});
+  const Pose born = reference.objects().at(1).pose;
+  const ObjectManagerFrame& returned = manager->process(back, back_cluster, unchanged(*manager));
+  EXPECT_EQ(returned.created, (std::vector<std::int32_t>{1}));
+  EXPECT_EQ(returned.registered, (std::vector<std::int32_t>{1}));
+  // The frame moved with the box: born pose carried by the box's motion.
+  const Pose expected = Pose::from_isometry(after.isometry() * before.isometry().inverse() * born.isometry());
+  const ManagedObject& object = manager->objects().at(1);
+  EXPECT_LT(test::degrees(test::rotation_error(object.pose, expected)), 3.f);
+  EXPECT_LT(test::translation_error(object.pose, expected), 0.006f);
+  EXPECT_GE(object.model.cloud.size(), reference.objects().at(1).model.cloud.size());  // remembered model kept
+
+  // Without the registration: a new frame at the new points' centroid, axis-aligned.
+  const auto plain = run(false);
+  const ObjectManagerFrame& fresh = plain->process(back, back_cluster, unchanged(*plain));
+  EXPECT_EQ(fresh.created, (std::vector<std::int32_t>{1}));
+  EXPECT_TRUE(fresh.registered.empty());
+  EXPECT_TRUE(plain->objects().at(1).pose.rotation.isApprox(Eigen::Quaternionf::Identity()));
 }
 
 TEST(ObjectManager, AGrownObjectReachingInAgainIsKnownByItsFirstView) {

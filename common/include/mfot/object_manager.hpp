@@ -6,6 +6,7 @@
 #include "mfot/individuation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_updater.hpp"
+#include "mfot/model_registration.hpp"
 #include "mfot/object_discovery.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/segmentation.hpp"
@@ -78,6 +79,12 @@ struct ObjectManagerOptions {
   int reidentify_frames = 900;
   // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
   float reidentify_similarity = 0.9f;
+  // A re-identified object's remembered model is registered on its new points
+  // (ModelRegistration): when that succeeds the object keeps its frame (its pose goes on where it
+  // left off) and its whole model, the new points added; otherwise, or with false, it starts
+  // from a new model and frame under its old id.
+  bool reidentify_register = true;
+  ModelRegistrationOptions registration;
   // An object lacking support whose model, at its pose, is at least this share occluded by
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
   // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
@@ -111,6 +118,7 @@ struct ManagedObject {
 struct ObjectManagerFrame {
   std::vector<std::int32_t> labels;    // per scene point: object id, 0 = none
   std::vector<std::int32_t> created;   // ids created this frame (ascending)
+  std::vector<std::int32_t> registered;  // of those, re-identified ones that kept their frame
   std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
@@ -132,7 +140,8 @@ struct ObjectManagerFrame {
 //      their locally convex parts, each an object (touching and stacked objects apart); a new
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
-//      back (its model and object frame are new: the pose jumps once);
+//      back, and with reidentify_register its remembered model is registered on the new points
+//      so that it keeps its object frame (else its model and frame are new: the pose jumps once);
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
@@ -165,6 +174,8 @@ class ObjectManager {
     std::int32_t version = 0;
     ColorHistogram histogram{};    // of its last model
     ColorHistogram first_seen{};   // of its model when created: what reaching in again shows first
+    ObjectModel model;             // its last model and pose, for the registration
+    Pose pose;
   };
   static ColorHistogram color_histogram(const ObjectModel& model);
   // The remembered id the histogram matches best, or 0.
@@ -182,6 +193,10 @@ class ObjectManager {
   void join(std::int32_t kept, std::int32_t joined);
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
   void forget(std::int32_t id);  // an object that is gone: every per-object table
+  // Registers retired's model on the points (scene indices) of a re-identified object: on success
+  // object gets its pose and the remembered model with the points added, and true is returned.
+  bool keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
+                  ManagedObject& object);
 
   ObjectManagerOptions options_;
   std::unique_ptr<ObjectDiscovery> discovery_;
@@ -220,6 +235,8 @@ class ObjectManager {
   std::vector<int> confirmed_;
   ColoredCloud segment_;
   SpatialHash wave_hash_{0.015f};
+  std::unique_ptr<ModelRegistration> registration_;  // with reidentify_register
+  HypothesisData registration_points_;
   std::vector<int> free_, wave_, next_wave_;
   std::vector<std::int32_t> wave_labels_;
   std::vector<Eigen::Vector3f> wave_points_;

@@ -145,7 +145,10 @@ void MergerCore::finish_frame(Clock::time_point now) {
     workers_.release(id, now);
     sink_.send_retirement(id, seq);
   }
-  for (const std::int32_t id : result.created) spdlog::info("object {} created at frame {}", id, seq);
+  for (const std::int32_t id : result.created) {
+    const bool kept_frame = std::find(result.registered.begin(), result.registered.end(), id) != result.registered.end();
+    spdlog::info("object {} created at frame {}{}", id, seq, kept_frame ? " (re-identified: its model registered, frame kept)" : "");
+  }
   assign_idle_workers(now);
   // Every owner gets its object's model of this frame (a new object's owner got it on assignment).
   for (const auto& [object_id, worker_id] : workers_.owners()) {

@@ -119,6 +119,20 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.propagation_radius = s.get<float>("propagation_radius", 0.f, 0.1f);
   c.manager.reidentify_frames = s.get<int>("reidentify_frames", 0, 1000000);
   c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
+  c.manager.reidentify_register = s.get<bool>("reidentify_register");
+  c.manager.registration.rotations = s.get<int>("reidentify_rotations", 1, 100000);
+  c.manager.registration.candidates = s.get<int>("reidentify_candidates", 1, 64);
+  c.manager.registration.refine_rounds = s.get<int>("reidentify_refine_rounds", 0, 100);
+  c.manager.registration.min_fit = s.get<float>("reidentify_min_fit", 0.f, 1.f);
+  c.manager.registration.seed = c.manager.model_update.seed;
+  {
+    // The registration scores and checks like the trackers: their JCSD cell and confidence.
+    auto tracker = config_section(root, "tracker");
+    c.manager.registration.cell_size = tracker.get<float>("cell_size", 0.001f, 0.2f);
+    c.manager.registration.fit.match_distance = tracker.get<float>("confidence_match_distance", 1e-4f, 0.1f);
+    c.manager.registration.fit.claim_margin = tracker.get<float>("confidence_claim_margin", 0.f, 0.1f);
+    c.manager.registration.fit.min_claimed_points = tracker.get<int>("confidence_min_points", 1, 1000000);
+  }
   c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 1, 1000);
   c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.01f, 1.f);
   c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 0, 100000);
