@@ -1,0 +1,106 @@
+// Cost of one object's tracking step on the CPU (issue 17's budget: at most 1.5x the thesis's step
+// for 3 objects at 100 particles): the particle filter's step alone, the published confidence
+// (EstimateFit) on the same points, and the whole TrackingStep with and without the motion-model
+// options (pattern-search refinement, annealing). The object is the synthetic 10 x 15 x 8 cm test
+// box (~1500 model points at 5 mm) turning 3 degrees and moving 5 mm a frame, seen with its near
+// side and a flat patch beside it in the hypothesis margin. Every figure is the median over the
+// frames of a run.
+//
+// Usage: mfot_bench_tracking_step [--frames N]
+
+#include "mfot/estimate_fit.hpp"
+#include "mfot/hypothesis.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/tracking_step.hpp"
+
+#include "../core/synthetic_object.hpp"
+#include "bench_timing.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+namespace {
+
+using mfot::bench::Clock;
+using mfot::bench::ms_since;
+using mfot::bench::Series;
+namespace test = mfot::test;
+
+const Eigen::Vector3f kSize(0.10f, 0.15f, 0.08f);
+
+mfot::Pose pose_at(int frame) {
+  return test::make_pose(Eigen::Vector3f(0.005f * static_cast<float>(frame) * 0.2f, 0.f, 0.9f),
+                         Eigen::Vector3f(0.3f, 1.f, 0.2f), test::radians(3.f * static_cast<float>(frame)));
+}
+
+mfot::ColoredCloud scene_at(int frame) {
+  mfot::ColoredCloud scene = test::seen_from_origin(test::make_test_object(0.5f, 0.005f, true), kSize, pose_at(frame));
+  for (float x = 0.1f; x < 0.16f; x += 0.005f) {  // a patch beside the box, inside the margin
+    for (float y = -0.05f; y < 0.05f; y += 0.005f) scene.push_back(Eigen::Vector3f(x, y, 0.92f), test::kWhite);
+  }
+  return scene;
+}
+
+struct Row {
+  const char* name;
+  mfot::ParticleFilterOptions filter;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 200;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--frames") == 0 && i + 1 < argc) {
+      frames = std::atoi(argv[++i]);
+    } else {
+      std::fprintf(stderr, "usage: mfot_bench_tracking_step [--frames N]\n");
+      return 2;
+    }
+  }
+  if (frames < 2) {
+    std::fprintf(stderr, "--frames must be at least 2\n");
+    return 2;
+  }
+  const mfot::ObjectModel model = test::make_model(test::make_test_object(0.f, 0.005f, true));
+  const Eigen::AlignedBox3f box = mfot::model_bounding_box(model);
+  std::vector<mfot::ColoredCloud> scenes;
+  for (int f = 0; f <= frames; ++f) scenes.push_back(scene_at(f));
+
+  mfot::ParticleFilterOptions thesis;
+  thesis.num_particles = 100;
+  mfot::ParticleFilterOptions refine = thesis;
+  refine.refine_rounds = 2;
+  mfot::ParticleFilterOptions anneal = thesis;
+  anneal.anneal_iterations = 2;
+  const Row rows[] = {{"thesis motion model", thesis}, {"refine_rounds 2", refine}, {"anneal_iterations 2", anneal}};
+
+  std::printf("model %zu points, 100 particles, %d frames (median ms per object and frame)\n\n", model.cloud.size(),
+              frames);
+  std::printf("| motion model | hypothesis points | TrackingStep | of it: EstimateFit | share |\n|---|---:|---:|---:|---:|\n");
+  for (const Row& row : rows) {
+    mfot::JcsdLikelihood likelihood;
+    likelihood.set_model(model);
+    mfot::ParticleFilter filter(row.filter);
+    filter.reset(pose_at(0));
+    mfot::TrackingStep step;
+    mfot::EstimateFit fit;
+    Series total, confidence, points;
+    for (int f = 1; f <= frames; ++f) {
+      const auto t0 = Clock::now();
+      const mfot::TrackingStepResult r = step.track(scenes[static_cast<std::size_t>(f)], model, box, filter, likelihood);
+      total.add(ms_since(t0));
+      const auto t1 = Clock::now();
+      const float c = fit.fit(step.hypothesis(), model, box, r.estimate);
+      confidence.add(ms_since(t1));
+      points.add(static_cast<double>(r.hypothesis_points));
+      if (!(c >= 0.f)) return 1;  // keeps the call
+    }
+    std::printf("| %s | %.0f | %.3f | %.3f | %.0f %% |\n", row.name, points.median(), total.median(),
+                confidence.median(), 100.0 * confidence.median() / total.median());
+  }
+  return 0;
+}
