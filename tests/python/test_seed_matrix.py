@@ -54,6 +54,9 @@ class SeedMatrixTest(unittest.TestCase):
                 config = (Path(tmp) / f"static-seed{r['seed']}" / "config.yaml").read_text()
                 self.assertIn(f"seed: {r['seed']}", config)
             poses = [(Path(tmp) / f"static-seed{s}" / "run" / "poses.csv").read_text() for s in (1, 2)]
+            roc = (Path(tmp) / "confidence_roc.csv").read_text().splitlines()
+            self.assertEqual(roc[0], "scenario,threshold,wrong_below,right_below")
+            self.assertEqual(len(roc), 1 + 2 * 21)  # static and all, 21 thresholds each
             self.assertNotEqual(poses[0], poses[1])  # other sensor noise and filter draws
 
 
@@ -75,3 +78,10 @@ class RocTest(unittest.TestCase):
         self.assertEqual(auc([(0.9, True), (0.1, False)]), 0.0)
         self.assertAlmostEqual(auc([(0.1, True), (0.6, True), (0.5, False), (0.9, False)]), 0.75)
         self.assertIsNone(auc([(0.3, False)]))
+
+    def test_roc_points_are_the_shares_below_each_threshold(self):
+        points = self.module.roc_points([(0.1, True), (0.6, True), (0.5, False), (0.9, False)], steps=4)
+        self.assertEqual([t for t, _, _ in points], [0.0, 0.25, 0.5, 0.75, 1.0])
+        self.assertEqual(points[1], (0.25, 0.5, 0.0))   # one wrong frame below 0.25, no right one
+        self.assertEqual(points[3], (0.75, 1.0, 0.5))
+        self.assertEqual(points[4], (1.0, 1.0, 1.0))
