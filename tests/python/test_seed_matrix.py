@@ -85,3 +85,15 @@ class RocTest(unittest.TestCase):
         self.assertEqual(points[1], (0.25, 0.5, 0.0))   # one wrong frame below 0.25, no right one
         self.assertEqual(points[3], (0.75, 1.0, 0.5))
         self.assertEqual(points[4], (1.0, 1.0, 1.0))
+
+    def test_roc_plot_is_drawn(self):
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            self.skipTest("python3-matplotlib missing from this interpreter")
+        pairs = [(0.1, True), (0.6, True), (0.5, False), (0.9, False)]
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "roc.png"
+            self.assertTrue(self.module.plot_roc({"all": self.module.roc_points(pairs)},
+                                                 {"all": self.module.roc_auc(pairs)}, path))
+            self.assertEqual(path.read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
