@@ -257,6 +257,20 @@ std::vector<std::uint32_t> even_subset(const ColoredCloud& cloud, std::size_t ma
   return chosen;
 }
 
+// The model's spatially even subset of at most max_points (even_subset), features kept with their points.
+ObjectModel thinned(ObjectModel model, std::size_t max_points) {
+  const std::vector<std::uint32_t> keep = even_subset(model.cloud, max_points);
+  if (keep.size() == model.cloud.size()) return model;
+  ObjectModel out;
+  out.cloud.reserve(keep.size());
+  out.features.reserve(keep.size());
+  for (const std::uint32_t k : keep) {
+    out.cloud.push_back(model.cloud.positions[k], model.cloud.colors[k]);
+    out.features.push_back(model.features[k]);
+  }
+  return out;
+}
+
 }  // namespace
 
 void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained) {
@@ -274,19 +288,7 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
   // Over the size limit the model thins out evenly instead of refusing the new part: an arm
   // reaching further in stays covered, so tau keeps segmenting it where the clustering splits
   // it from the hand (grazing views of an arm pointing at the camera).
-  const std::vector<std::uint32_t> keep = even_subset(grown.cloud, options_.max_model_points);
-  if (keep.size() == grown.cloud.size()) {
-    object.model = std::move(grown);
-  } else {
-    object.model.cloud.clear();
-    object.model.features.clear();
-    object.model.cloud.reserve(keep.size());
-    object.model.features.reserve(keep.size());
-    for (const std::uint32_t k : keep) {
-      object.model.cloud.push_back(grown.cloud.positions[k], grown.cloud.colors[k]);
-      object.model.features.push_back(grown.features[k]);
-    }
-  }
+  object.model = thinned(std::move(grown), options_.max_model_points);
   ++object.version;
 }
 
@@ -412,13 +414,7 @@ bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud&
     whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
   }
   whole.features.insert(whole.features.end(), registration_points_.features.begin(), registration_points_.features.end());
-  const std::vector<std::uint32_t> keep = even_subset(whole.cloud, options_.max_model_points);
-  object.model.cloud.clear();
-  object.model.features.clear();
-  for (const std::uint32_t k : keep) {
-    object.model.cloud.push_back(whole.cloud.positions[k], whole.cloud.colors[k]);
-    object.model.features.push_back(whole.features[k]);
-  }
+  object.model = thinned(std::move(whole), options_.max_model_points);
   object.pose = found->pose;
   return true;
 }
@@ -487,13 +483,7 @@ void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
   }
   // SMR features depend on colour only: the joined part's stay valid in the kept frame.
   whole.features.insert(whole.features.end(), joined.model.features.begin(), joined.model.features.end());
-  const std::vector<std::uint32_t> keep = even_subset(whole.cloud, options_.max_model_points);
-  kept.model.cloud.clear();
-  kept.model.features.clear();
-  for (const std::uint32_t k : keep) {
-    kept.model.cloud.push_back(whole.cloud.positions[k], whole.cloud.colors[k]);
-    kept.model.features.push_back(whole.features[k]);
-  }
+  kept.model = thinned(std::move(whole), options_.max_model_points);
   ++kept.version;
   kept.support += joined.support;
   for (std::int32_t& label : frame_.labels) {
