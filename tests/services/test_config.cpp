@@ -112,6 +112,40 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
 }
 
+TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
+  const std::string tracker =
+      "tracker:\n  cell_size: 0.02\n  confidence_match_distance: 0.008\n  confidence_claim_margin: 0.005\n"
+      "  confidence_min_points: 40\n  confidence_hold_half_life: 10\n";
+  const TrackerConfig t = load_tracker_config(with_defaults(tracker));
+  EXPECT_FLOAT_EQ(t.step.fit.match_distance, 0.008f);
+  EXPECT_FLOAT_EQ(t.step.fit.claim_margin, 0.005f);
+  EXPECT_EQ(t.step.fit.min_claimed_points, 40);
+  EXPECT_FLOAT_EQ(t.step.hold_confidence_half_life, 10.f);
+  const MergerConfig m = load_merger_config(with_defaults(
+      tracker + "merger:\n  reidentify_register: false\n  reidentify_rotations: 64\n  reidentify_candidates: 2\n"
+                "  reidentify_refine_rounds: 5\n  reidentify_min_fit: 0.6\n"));
+  EXPECT_FALSE(m.manager.reidentify_register);
+  EXPECT_EQ(m.manager.registration.rotations, 64);
+  EXPECT_EQ(m.manager.registration.candidates, 2);
+  EXPECT_EQ(m.manager.registration.refine_rounds, 5);
+  EXPECT_FLOAT_EQ(m.manager.registration.min_fit, 0.6f);
+  // The registration scores and checks like the trackers.
+  EXPECT_FLOAT_EQ(m.manager.registration.cell_size, 0.02f);
+  EXPECT_FLOAT_EQ(m.manager.registration.fit.match_distance, 0.008f);
+  EXPECT_EQ(m.manager.registration.fit.min_claimed_points, 40);
+  for (const std::string bad : {"tracker:\n  confidence_match_distance: 0.5\n", "merger:\n  reidentify_min_fit: 1.5\n",
+                                "merger:\n  reidentify_rotations: 0\n"}) {
+    const bool tracker_key = bad.rfind("tracker", 0) == 0;
+    try {
+      tracker_key ? (void)load_tracker_config(with_defaults(bad)) : (void)load_merger_config(with_defaults(bad));
+      FAIL() << bad << " was accepted";
+    } catch (const ConfigError& e) {
+      const std::string key = bad.substr(bad.find("  ") + 2, bad.find(':', bad.find("  ")) - bad.find("  ") - 2);
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
   EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
 }
