@@ -163,43 +163,33 @@ std::optional<Registration> ModelRegistration::register_model(const ObjectModel&
   // Stable on ties: the earlier hypothesis (the prior's) wins.
   std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(kept), order.end(),
                     [&](std::size_t a, std::size_t b) { return scores_[a] > scores_[b] || (scores_[a] == scores_[b] && a < b); });
-  std::vector<Pose> starts;
-  for (std::size_t k = 0; k < kept; ++k) starts.push_back(hypotheses_[order[k]]);
 
-  // 3. Pattern search from each.
+  // 3. Pattern search from each; a pose's score is kept from the evaluation that chose it.
   Pose best;
   float best_score = -std::numeric_limits<float>::infinity();
-  std::vector<Pose> moves(13);
-  std::vector<float> move_scores(13);
-  for (const Pose& start : starts) {
-    Pose current = start;
+  std::array<Pose, kPatternMoves> moves;
+  std::array<float, kPatternMoves> move_scores{};
+  for (std::size_t candidate = 0; candidate < kept; ++candidate) {
+    Pose current = hypotheses_[order[candidate]];
+    float current_score = scores_[order[candidate]];
     float translation = kFirstTranslationStep, rotation = kFirstRotationStep;
     for (int round = 0; round < options_.refine_rounds; ++round) {
-      moves[0] = current;
-      for (int k = 0; k < 6; ++k) {
-        for (int sign = 0; sign < 2; ++sign) {
-          PoseVector step = PoseVector::Zero();
-          step[k] = (sign == 0 ? 1.f : -1.f) * (k < 3 ? translation : rotation);
-          Pose& move = moves[static_cast<std::size_t>(1 + 2 * k + sign)];
-          move = apply_increment(current, step);
-          // A turn about the origin moves the near side: re-centre it on the points.
-          if (k >= 3) align_translation(model, points, 1, move);
-        }
-      }
+      pattern_moves(current, translation, rotation, moves);
+      // A turn about the origin moves the near side: re-centre it on the points.
+      for (std::size_t m = 7; m < kPatternMoves; ++m) align_translation(model, points, 1, moves[m]);
       likelihood_.evaluate(moves, points, move_scores);
       // The first of equal scores wins: the pose stays unless a move scores higher.
-      const auto winner = std::max_element(move_scores.begin(), move_scores.end()) - move_scores.begin();
+      const auto winner = static_cast<std::size_t>(std::max_element(move_scores.begin(), move_scores.end()) -
+                                                   move_scores.begin());
       if (winner == 0) {
         translation *= 0.5f;
         rotation *= 0.5f;
       }
-      current = moves[static_cast<std::size_t>(winner)];
+      current = moves[winner];
+      current_score = move_scores[winner];
     }
-    const std::array<Pose, 1> last{current};
-    std::array<float, 1> last_score{};
-    likelihood_.evaluate(last, points, last_score);
-    if (last_score[0] > best_score) {
-      best_score = last_score[0];
+    if (current_score > best_score) {
+      best_score = current_score;
       best = current;
     }
   }

@@ -77,6 +77,17 @@ Pose apply_increment(const Pose& pose, const PoseVector& increment) {
   return out;
 }
 
+void pattern_moves(const Pose& centre, float translation, float rotation, std::span<Pose, kPatternMoves> out) {
+  out[0] = centre;
+  for (int k = 0; k < 6; ++k) {
+    for (int sign = 0; sign < 2; ++sign) {
+      PoseVector step = PoseVector::Zero();
+      step[k] = (sign == 0 ? 1.f : -1.f) * (k < 3 ? translation : rotation);
+      out[static_cast<std::size_t>(1 + 2 * k + sign)] = apply_increment(centre, step);
+    }
+  }
+}
+
 Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weights,
                         const Eigen::Quaternionf& reference) {
   if (poses.size() != weights.size() || poses.empty()) {
@@ -225,17 +236,10 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
 void ParticleFilter::refine(const HypothesisData& data, Likelihood& likelihood) {
   float translation = options_.refine_translation;
   float rotation = options_.refine_rotation;
-  candidates_.resize(13);
-  candidate_scores_.resize(13);
+  candidates_.resize(kPatternMoves);
+  candidate_scores_.resize(kPatternMoves);
   for (int round = 0; round < options_.refine_rounds; ++round) {
-    candidates_[0] = estimate_;
-    for (int k = 0; k < 6; ++k) {
-      for (int sign = 0; sign < 2; ++sign) {
-        PoseVector step = PoseVector::Zero();
-        step[k] = (sign == 0 ? 1.f : -1.f) * (k < 3 ? translation : rotation);
-        candidates_[static_cast<std::size_t>(1 + 2 * k + sign)] = apply_increment(estimate_, step);
-      }
-    }
+    pattern_moves(estimate_, translation, rotation, std::span<Pose, kPatternMoves>(candidates_.data(), kPatternMoves));
     likelihood.evaluate(candidates_, data, candidate_scores_);
     // The first of equal scores wins, so the estimate stays unless a move scores higher.
     const auto best = std::max_element(candidate_scores_.begin(), candidate_scores_.end()) - candidate_scores_.begin();

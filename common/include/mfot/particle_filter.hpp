@@ -55,6 +55,11 @@ Eigen::Vector3f rpy_from_rotation(const Eigen::Quaternionf& rotation);  // roll,
 PoseVector pose_difference(const Pose& from, const Pose& to);
 // X + dX: translation added, rotation composed on the left (inverse of pose_difference).
 Pose apply_increment(const Pose& pose, const PoseVector& increment);
+// The 13 poses of one pattern-search round about centre: out[0] = centre, then centre moved by
+// +-translation along (k = 0..2) and turned by +-rotation about (k = 3..5) each camera axis, as
+// out[1 + 2 k] (+) and out[2 + 2 k] (-), with apply_increment.
+inline constexpr std::size_t kPatternMoves = 13;
+void pattern_moves(const Pose& centre, float translation, float rotation, std::span<Pose, kPatternMoves> out);
 
 // Weighted mean pose (2.11): weighted mean translation and the weighted quaternion mean, the
 // eigenvector of the largest eigenvalue of sum w_i q_i q_i^T (invariant to each q_i's sign),
