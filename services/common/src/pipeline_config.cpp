@@ -21,6 +21,18 @@ int auto_preprocess_threads() {
   return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
 
+// The tracker keys that the merger's re-identification registration shares: the JCSD cell and the
+// confidence measure (read the same way, with the same ranges, by both loaders).
+float read_cell_size(ConfigSection& tracker) { return tracker.get<float>("cell_size", 0.001f, 0.2f); }
+
+EstimateFitOptions read_fit_options(ConfigSection& tracker) {
+  EstimateFitOptions fit;
+  fit.match_distance = tracker.get<float>("confidence_match_distance", 1e-4f, 0.1f);
+  fit.claim_margin = tracker.get<float>("confidence_claim_margin", 0.f, 0.1f);
+  fit.min_claimed_points = tracker.get<int>("confidence_min_points", 1, 1000000);
+  return fit;
+}
+
 }  // namespace
 
 PreprocessConfig load_preprocess_config(const YAML::Node& root) {
@@ -65,7 +77,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.likelihood.backend = parse_likelihood_backend(s.choice("backend", {"auto", "cuda", "cpu", "point-to-point"}));
   c.likelihood.cpu_threads = s.get<int>("threads", 1, 256);
   c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 64);
-  c.likelihood.grid.cell_size = s.get<float>("cell_size", 0.001f, 0.2f);
+  c.likelihood.grid.cell_size = read_cell_size(s);
   c.filter.num_particles = s.get<int>("particles", 1, 100000);
   c.filter.lambda = s.get<float>("lambda", 0.f, 1000.f);
   c.filter.seed = s.get<std::uint64_t>("seed");
@@ -89,9 +101,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.occlusion.window = s.get<float>("occlusion_window", 1e-4f, 0.1f);
   c.step.occlusion.own_surface_radius =
       s.get<float>("own_surface_radius", 0.f, 0.1f);
-  c.step.fit.match_distance = s.get<float>("confidence_match_distance", 1e-4f, 0.1f);
-  c.step.fit.claim_margin = s.get<float>("confidence_claim_margin", 0.f, 0.1f);
-  c.step.fit.min_claimed_points = s.get<int>("confidence_min_points", 1, 1000000);
+  c.step.fit = read_fit_options(s);
   c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
@@ -128,10 +138,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   {
     // The registration scores and checks like the trackers: their JCSD cell and confidence.
     auto tracker = config_section(root, "tracker");
-    c.manager.registration.cell_size = tracker.get<float>("cell_size", 0.001f, 0.2f);
-    c.manager.registration.fit.match_distance = tracker.get<float>("confidence_match_distance", 1e-4f, 0.1f);
-    c.manager.registration.fit.claim_margin = tracker.get<float>("confidence_claim_margin", 0.f, 0.1f);
-    c.manager.registration.fit.min_claimed_points = tracker.get<int>("confidence_min_points", 1, 1000000);
+    c.manager.registration.cell_size = read_cell_size(tracker);
+    c.manager.registration.fit = read_fit_options(tracker);
   }
   c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 1, 1000);
   c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.01f, 1.f);
