@@ -1,5 +1,6 @@
 #include "mfot/object_manager.hpp"
 
+#include "mfot/hypothesis.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 
@@ -561,6 +562,27 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       const std::size_t before = frame_.created.size();
       create_object(scene, *points);
       if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
+    }
+  }
+}
+
+void ObjectManager::claimed_points(std::int32_t id, float margin, std::vector<Eigen::Vector3f>& out) const {
+  out.clear();
+  const auto it = objects_.find(id);
+  if (it == objects_.end()) return;
+  const Eigen::AlignedBox3f box = model_bounding_box(it->second.model);
+  if (box.isEmpty()) return;
+  const Eigen::Vector3f lo = box.min() - Eigen::Vector3f::Constant(margin);
+  const Eigen::Vector3f hi = box.max() + Eigen::Vector3f::Constant(margin);
+  const Pose& pose = it->second.pose;
+  const Eigen::Matrix3f to_object = pose.rotation.conjugate().toRotationMatrix();
+  for (const auto& [other_id, other] : objects_) {
+    if (other_id == id) continue;
+    const Eigen::Matrix3f rotation = other.pose.rotation.toRotationMatrix();
+    for (const Eigen::Vector3f& m : other.model.cloud.positions) {
+      const Eigen::Vector3f camera = rotation * m + other.pose.translation;
+      const Eigen::Vector3f local = to_object * (camera - pose.translation);
+      if ((local.array() >= lo.array()).all() && (local.array() <= hi.array()).all()) out.push_back(camera);
     }
   }
 }

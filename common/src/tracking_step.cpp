@@ -32,6 +32,10 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
                                 std::to_string(hold_occluded_share));
   }
+  if (!(exclude_claimed_radius >= 0.f && exclude_claimed_radius <= 0.1f)) {
+    throw std::invalid_argument("TrackingStepOptions.exclude_claimed_radius must be in [0, 0.1] metres, got " +
+                                std::to_string(exclude_claimed_radius));
+  }
   if (!(max_hold_frames >= 1 && max_hold_frames <= 100000)) {
     throw std::invalid_argument("TrackingStepOptions.max_hold_frames must be in [1, 100000], got " +
                                 std::to_string(max_hold_frames));
@@ -39,7 +43,16 @@ void TrackingStepOptions::validate() const {
 }
 
 TrackingStep::TrackingStep(const TrackingStepOptions& options)
-    : options_(validated(options)), occlusion_(options.occlusion), fit_(options.fit) {}
+    : options_(validated(options)),
+      occlusion_(options.occlusion),
+      fit_(options.fit),
+      others_(std::max(options.exclude_claimed_radius, 1e-3f)),
+      own_(std::max(options.exclude_claimed_radius, 1e-3f)) {}
+
+void TrackingStep::set_other_objects(std::span<const Eigen::Vector3f> points) {
+  others_points_.assign(points.begin(), points.end());
+  others_.build(others_points_);
+}
 
 TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectModel& model,
                                        const Eigen::AlignedBox3f& model_box, ParticleFilter& filter,
@@ -71,11 +84,39 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   if (options_.exclude_occluders && !result.hold_expired) {
     result.occluders_removed = occlusion_.remove_occluders(hypothesis_);
   }
+  if (options_.exclude_claimed_radius > 0.f && !others_points_.empty()) {
+    result.claimed_removed = remove_claimed(model, last);
+  }
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
   result.estimate = filter.step(hypothesis_, likelihood);
   result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
+}
+
+std::size_t TrackingStep::remove_claimed(const ObjectModel& model, const Pose& last) {
+  const float radius = options_.exclude_claimed_radius;
+  own_points_.clear();
+  for (const Eigen::Vector3f& m : model.cloud.positions) own_points_.push_back(last.rotation * m + last.translation);
+  own_.build(own_points_);
+  std::size_t kept = 0;
+  const std::size_t n = hypothesis_.points.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = hypothesis_.points[i];
+    float other_sq = 0.f;
+    bool claimed = others_.nearest(p, radius, &other_sq) >= 0;
+    if (claimed) {
+      float own_sq = 0.f;
+      if (own_.nearest(p, std::sqrt(other_sq), &own_sq) >= 0 && own_sq <= other_sq) claimed = false;
+    }
+    if (claimed) continue;
+    hypothesis_.points[kept] = p;
+    hypothesis_.colors[kept] = hypothesis_.colors[i];
+    ++kept;
+  }
+  hypothesis_.points.resize(kept);
+  hypothesis_.colors.resize(kept);
+  return n - kept;
 }
 
 }  // namespace mfot

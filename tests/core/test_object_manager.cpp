@@ -54,6 +54,33 @@ TEST(ObjectManager, FirstFrameMakesOneObjectPerClusterAndLabelsIt) {
   EXPECT_TRUE((first.pose.isometry() * first.model.cloud.positions[0]).isApprox(scene.cloud.positions[0], 1e-5f));
 }
 
+TEST(ObjectManager, ClaimedPointsAreTheOtherObjectsModelPointsInsideAnObjectsGrownBox) {
+  TwoBlocks scene;
+  // A thin third block 1.5 cm right of the first (x from -0.13 to -0.115 m).
+  add_block(scene.cloud, scene.cluster, 2, {-0.13f, 0.f, 1.f}, {4, 12, 6});
+  ObjectManager manager;
+  manager.process(scene.cloud, scene.cluster, {});
+  ASSERT_EQ(manager.objects().size(), 3u);
+  std::vector<Eigen::Vector3f> claimed;
+  // The first block's box ends at x = -0.145: grown by 2.2 cm it takes the third block's two
+  // nearest columns (x = -0.13 and -0.125), at their poses, in the camera frame; the far block none.
+  manager.claimed_points(1, 0.022f, claimed);
+  ASSERT_EQ(claimed.size(), 2u * 12u * 6u);
+  for (const Eigen::Vector3f& p : claimed) {
+    EXPECT_LT(p.x(), -0.1225f);
+    EXPECT_GT(p.x(), -0.1325f);
+    EXPECT_GE(p.z(), 1.f - 1e-5f);
+  }
+  manager.claimed_points(1, 0.f, claimed);
+  EXPECT_TRUE(claimed.empty());
+  manager.claimed_points(3, 0.022f, claimed);  // the first block's two columns nearest the third
+  EXPECT_EQ(claimed.size(), 2u * 12u * 6u);
+  manager.claimed_points(42, 1.f, claimed);
+  EXPECT_TRUE(claimed.empty());
+  manager.claimed_points(2, 1.f, claimed);  // everything else, within a metre
+  EXPECT_EQ(claimed.size(), scene.cloud.size() - manager.objects().at(2).model.cloud.size());
+}
+
 // Splits a cluster at x = 0 (a stand-in for the convexity discovery).
 class SplitAtXZero final : public ObjectDiscovery {
  public:

@@ -82,6 +82,69 @@ TEST(TrackingStep, LeavesTheHandInFrontOutOfTheLikelihood) {
   }
 }
 
+// Fingers gripping the box: a skin-coloured plate 5 mm off its right face (x = +5 cm in the object
+// frame), within the own-surface radius, so the occlusion test keeps it as the box's own surface.
+// The hand is another tracked object whose model covers those fingers.
+struct FingersOnBox {
+  ObjectModel model = test::make_model(test::make_test_object(0.f));
+  Pose truth = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f::UnitY(), 0.3f);
+  std::vector<Eigen::Vector3f> fingers;  // camera frame
+  FingersOnBox() {
+    for (float y = -0.06f; y <= 0.06f; y += 0.005f) {
+      for (float z = -0.035f; z <= 0.035f; z += 0.005f) fingers.push_back(truth.isometry() * Eigen::Vector3f(0.055f, y, z));
+    }
+  }
+  ColoredCloud scene() const {
+    ColoredCloud cloud = test::transformed(test::make_test_object(0.5f), truth);
+    for (const Eigen::Vector3f& f : fingers) cloud.push_back(f, kSkin);
+    return cloud;
+  }
+};
+
+TEST(TrackingStep, LeavesThePointsAnotherObjectClaimsOutOfTheLikelihood) {
+  const FingersOnBox setup;
+  const ColoredCloud scene = setup.scene();
+  const std::size_t box_points = scene.size() - setup.fingers.size();
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+
+  TrackingStepOptions options = occlusion_aware();
+  options.exclude_claimed_radius = 0.01f;
+  EXPECT_FLOAT_EQ(options.claimed_margin(), 0.06f);
+  TrackingStep step(options);
+  ParticleFilter filter(filter_options());
+  filter.reset(setup.truth);
+  // Nothing claimed yet: every point is scored, the fingers too (the occlusion test keeps them).
+  const TrackingStepResult unclaimed = step.track(scene, setup.model, box, filter, likelihood);
+  EXPECT_EQ(unclaimed.claimed_removed, 0u);
+  EXPECT_EQ(unclaimed.occluders_removed, 0u);
+  EXPECT_EQ(unclaimed.hypothesis_points, scene.size());
+
+  // The hand's model claims the fingers: exactly they are left out; the box's own face 5 mm away
+  // is nearer to the box's model and stays.
+  step.set_other_objects(setup.fingers);
+  for (int frame = 0; frame < 30; ++frame) {
+    const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
+    ASSERT_EQ(r.claimed_removed, setup.fingers.size()) << "frame " << frame;
+    ASSERT_EQ(r.hypothesis_points, box_points) << "frame " << frame;
+    for (const Rgb8& c : step.hypothesis().colors) ASSERT_FALSE(c == kSkin) << "a finger was scored";
+    EXPECT_LT(test::translation_error(r.estimate, setup.truth), 0.005f) << "frame " << frame;
+    EXPECT_LT(test::degrees(test::rotation_error(r.estimate, setup.truth)), 3.f) << "frame " << frame;
+  }
+
+  // Radius 0 is the thesis: claims are ignored.
+  TrackingStepOptions thesis = occlusion_aware();
+  TrackingStep plain(thesis);
+  EXPECT_EQ(thesis.claimed_margin(), 0.f);
+  plain.set_other_objects(setup.fingers);
+  ParticleFilter plain_filter(filter_options());
+  plain_filter.reset(setup.truth);
+  const TrackingStepResult all = plain.track(scene, setup.model, box, plain_filter, likelihood);
+  EXPECT_EQ(all.claimed_removed, 0u);
+  EXPECT_EQ(all.hypothesis_points, scene.size());
+}
+
 TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
   const HandOverBox setup;
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
@@ -240,6 +303,11 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
   o.occlusion.window = 0.f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.exclude_claimed_radius = 0.2f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.exclude_claimed_radius = -0.01f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
 }
 

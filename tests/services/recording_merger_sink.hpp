@@ -17,6 +17,7 @@ struct SentModel {
   std::int64_t frame_seq;
   Pose pose;
   std::size_t model_points;
+  std::vector<Eigen::Vector3f> claimed;  // the other objects' points sent with it
 };
 
 struct PublishedFrame {
@@ -31,8 +32,9 @@ struct PublishedFrame {
 class RecordingSink : public MergerSink {
  public:
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq) override {
-    models.push_back({object.id, worker_id, worker_instance, frame_seq, object.pose, object.model.cloud.size()});
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) override {
+    models.push_back({object.id, worker_id, worker_instance, frame_seq, object.pose, object.model.cloud.size(),
+                      std::vector<Eigen::Vector3f>(claimed.begin(), claimed.end())});
   }
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override {
     retirements.emplace_back(object_id, frame_seq);

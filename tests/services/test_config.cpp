@@ -112,6 +112,25 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
 }
 
+TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
+  const std::string keys = "tracker:\n  hypothesis_margin: 0.04\n  exclude_claimed_radius: 0.015\n";
+  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults(keys)).step.exclude_claimed_radius, 0.015f);
+  // The merger sends with each model what lies within the tracker's margin plus the radius.
+  EXPECT_FLOAT_EQ(load_merger_config(with_defaults(keys)).claimed_margin, 0.055f);
+  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("tracker:\n  exclude_claimed_radius: 0\n")).claimed_margin, 0.f);
+  // Shipped: on (configs/default.yaml).
+  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.exclude_claimed_radius, 0.f);
+  for (const std::string bad : {"tracker:\n  exclude_claimed_radius: 0.5\n", "tracker:\n  exclude_claimed_radius: -1\n"}) {
+    try {
+      load_tracker_config(with_defaults(bad));
+      FAIL() << bad << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("exclude_claimed_radius"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(load_merger_config(with_defaults(bad)), ConfigError);
+  }
+}
+
 TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
   const std::string tracker =
       "tracker:\n  cell_size: 0.02\n  confidence_match_distance: 0.008\n  confidence_claim_margin: 0.005\n"

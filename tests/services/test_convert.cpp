@@ -132,6 +132,31 @@ TEST(Convert, ModelRoundTripsThroughTheMessageAndTheWire) {
   for (int i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(velocity[i], 0.01f * (i + 1));
 }
 
+TEST(Convert, ClaimedPointsRoundTripAndBadOnesAreNamed) {
+  const std::vector<Eigen::Vector3f> claimed{{0.1f, -0.2f, 1.1f}, {0.f, 0.f, 0.5f}};
+  object_model_t msg{};
+  model_to_message(make_model(3), msg);
+  claimed_to_message(claimed, msg);
+  EXPECT_EQ(msg.num_claimed, 2);
+  std::vector<Eigen::Vector3f> back{{9.f, 9.f, 9.f}};
+  ASSERT_FALSE(claimed_from_message(over_the_wire(msg), back).has_value());
+  EXPECT_EQ(back, claimed);
+  object_model_t none{};
+  ASSERT_FALSE(claimed_from_message(over_the_wire(none), back).has_value());
+  EXPECT_TRUE(back.empty());
+
+  object_model_t nan_point = msg;
+  nan_point.claimed_y[1] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(claimed_from_message(nan_point, back), "non-finite claimed point 1");
+  EXPECT_TRUE(back.empty());
+  object_model_t short_array = msg;
+  short_array.claimed_z.pop_back();
+  EXPECT_EQ(claimed_from_message(short_array, back), "claimed array sizes disagree with num_claimed");
+  object_model_t negative = msg;
+  negative.num_claimed = -1;
+  EXPECT_EQ(claimed_from_message(negative, back), "negative num_claimed");
+}
+
 TEST(Convert, EmptyModelRoundTrips) {
   object_model_t msg{};
   msg.orientation[0] = 1.0;

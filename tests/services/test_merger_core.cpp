@@ -358,6 +358,27 @@ scene_cloud_t block_scene(std::int64_t seq, float x) {
   return msg;
 }
 
+// block_scene's block and a second one (cluster 1) 1.5 cm to its right, from x + 0.075 m.
+scene_cloud_t two_block_scene(std::int64_t seq, float x) {
+  scene_cloud_t msg = block_scene(seq, x);
+  const scene_cloud_t right = block_scene(seq, x + 0.075f);
+  const auto n = right.x.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    msg.x.push_back(right.x[i]);
+    msg.y.push_back(right.y[i]);
+    msg.z.push_back(right.z[i]);
+    msg.r.push_back(30);
+    msg.g.push_back(200);
+    msg.b.push_back(30);
+    msg.u.push_back(static_cast<std::int16_t>(right.u[i] + 20));
+    msg.v.push_back(right.v[i]);
+    msg.cluster.push_back(1);
+  }
+  msg.num_clusters = 2;
+  msg.num_points = static_cast<std::int32_t>(msg.x.size());
+  return msg;
+}
+
 heartbeat_t heartbeat_of(std::int32_t worker, std::int32_t object, std::int64_t last_seq) {
   heartbeat_t msg{};
   msg.worker_id = worker;
@@ -426,6 +447,38 @@ TEST_F(MergerCoreTest, AFrameWithoutObjectsCreatesThemAndHandsThemToWorkers) {
   EXPECT_EQ(sink.models.back().frame_seq, 1);
   EXPECT_EQ(sink.models.back().worker_id, 0);
   EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(MergerCoreTest, EachModelCarriesWhatTheOtherObjectsClaimNearIt) {
+  for (const float margin : {0.062f, 0.f}) {
+    MergerCoreOptions o = options();
+    o.claimed_margin = margin;
+    RecordingSink claims;
+    MergerCore claiming{o, claims, malformed, clock.function()};
+    for (const std::int32_t worker : {0, 1}) {
+      Bytes hb = encode(heartbeat_of(worker, -1, -1));
+      const lcm::ReceiveBuffer buffer{hb.data(), static_cast<std::uint32_t>(hb.size()), 0};
+      claiming.on_heartbeat(&buffer, "TEST");
+    }
+    Bytes scene = encode(two_block_scene(0, 0.f));
+    const lcm::ReceiveBuffer buffer{scene.data(), static_cast<std::uint32_t>(scene.size()), 0};
+    claiming.on_scene(&buffer, "TEST");
+    EXPECT_EQ(claiming.step(), 1);
+    ASSERT_EQ(claims.models.size(), 2u);
+    for (const SentModel& model : claims.models) {
+      SCOPED_TRACE(::testing::Message() << "object " << model.object_id << ", margin " << margin);
+      if (margin == 0.f) {
+        EXPECT_TRUE(model.claimed.empty());
+        continue;
+      }
+      // The other block's columns within 6.2 cm of this block's box (9 of its 12), camera frame.
+      EXPECT_EQ(model.claimed.size(), 9u * 12u * 2u);
+      for (const Eigen::Vector3f& p : model.claimed) {
+        if (model.object_id == 1) EXPECT_GT(p.x(), 0.07f);
+        else EXPECT_LT(p.x(), 0.06f);
+      }
+    }
+  }
 }
 
 TEST_F(MergerCoreTest, AMissingEstimateLeavesThePoseStaleAfterTheTimeout) {

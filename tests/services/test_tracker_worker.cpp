@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <vector>
 
 namespace mfot::service {
@@ -194,6 +195,40 @@ TEST_F(TrackerWorkerTest, TracksTheObjectAddressedToThisProcessAndHeartbeatsIt) 
   EXPECT_EQ(malformed.total(), 0);
 }
 
+TEST(TrackerWorker, WhatTheModelSaysOtherObjectsClaimIsLeftOutOfTheNextScene) {
+  TrackerConfig c = TrackerWorkerTest::config();
+  c.step.exclude_claimed_radius = 0.01f;
+  RecordingTrackerSink sink;
+  MalformedCounter malformed;
+  const auto now = std::chrono::steady_clock::time_point{std::chrono::seconds(100)};
+  TrackerWorker worker{c, {4, 444, "host-a"}, sink, malformed, [now] { return now; }};
+  const scene_cloud_t scene = scene_message(1);
+  // Nothing claimed: every point near the object is scored.
+  auto deliver_to = [&worker](auto handler, const auto& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (worker.*handler)(&buffer, "TEST");
+  };
+  deliver_to(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver_to(&TrackerWorker::on_scene, scene);
+  ASSERT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 1u);
+  EXPECT_EQ(sink.estimates[0].num_hypothesis_points, scene.num_points);
+  // The next model says another object's model lies on every point of the scene: none is scored.
+  object_model_t claiming = model_for(7, 4, 444, 1);
+  std::vector<Eigen::Vector3f> claimed;
+  for (std::size_t i = 0; i < scene.x.size(); ++i) claimed.emplace_back(scene.x[i], scene.y[i], scene.z[i]);
+  claimed_to_message(claimed, claiming);
+  deliver_to(&TrackerWorker::on_model, claiming);
+  scene_cloud_t next = scene_message(2);
+  next.x = scene.x, next.y = scene.y, next.z = scene.z;
+  deliver_to(&TrackerWorker::on_scene, next);
+  ASSERT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 2u);
+  EXPECT_EQ(sink.estimates[1].num_hypothesis_points, 0);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
 TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) {
   Bytes truncated = encode(model_for(7, 4, 444, 0));
   truncated.resize(truncated.size() - 3);
@@ -206,7 +241,10 @@ TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) 
   scene_cloud_t bad_scene = scene_message(1);
   bad_scene.cluster[0] = 5;  // beyond num_clusters
   deliver(&TrackerWorker::on_scene, bad_scene);
-  EXPECT_EQ(malformed.total(), 3);
+  object_model_t bad_claim = model_for(7, 4, 444, 0);
+  claimed_to_message(std::vector<Eigen::Vector3f>{{0.f, std::nanf(""), 1.f}}, bad_claim);
+  deliver(&TrackerWorker::on_model, bad_claim);
+  EXPECT_EQ(malformed.total(), 4);
   EXPECT_FALSE(worker.tracker().has_object());
   deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
   deliver(&TrackerWorker::on_scene, scene_message(1));

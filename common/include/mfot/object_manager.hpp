@@ -162,6 +162,11 @@ class ObjectManager {
 
   const std::map<std::int32_t, ManagedObject>& objects() const { return objects_; }
   const ObjectManagerFrame& last_frame() const { return frame_; }
+  // What the other objects claim near object `id` (for its tracker's exclude_claimed_radius): their
+  // model points at their latest poses (camera frame) that lie inside id's model bounding box at
+  // its latest pose, grown by margin (the tracker's hypothesis margin plus the claim radius), in
+  // order of object id and model point. out is cleared first; none for an unknown id.
+  void claimed_points(std::int32_t id, float margin, std::vector<Eigen::Vector3f>& out) const;
   std::int64_t frames_processed() const { return frames_; }
   // Ids up to `id` are in use elsewhere (objects the trackers still hold when a merger restarts):
   // new objects get larger ones.

@@ -10,9 +10,11 @@
 #include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
 
 #include <cstddef>
 #include <span>
+#include <vector>
 
 namespace mfot {
 
@@ -41,6 +43,15 @@ struct TrackingStepOptions {
   // A held frame's confidence is the last stepped frame's halved every this many holds in a row:
   // a hidden object may be moving (carried behind the hand). Frames, [1, 100000].
   float hold_confidence_half_life = 15.f;
+  // Points claimed by other objects (departure from the thesis): a hypothesis point within this
+  // distance of another tracked object's model at its last pose, and nearer to it than to this
+  // object's model at its last estimate, is left out of the likelihood (the fingers gripping a box
+  // lie within a centimetre of its faces and pull its estimate onto the hand). Metres [0, 0.1];
+  // 0 = score them (thesis). Needs set_other_objects().
+  float exclude_claimed_radius = 0.f;
+  // How far beyond the model's box the other objects' points matter (ObjectManager::claimed_points):
+  // the hypothesis margin plus the claim radius; 0 when the claim radius is 0.
+  float claimed_margin() const { return exclude_claimed_radius > 0.f ? hypothesis.margin + exclude_claimed_radius : 0.f; }
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -51,6 +62,7 @@ struct TrackingStepResult {
   float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
   std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
+  std::size_t claimed_removed = 0;      // left out as claimed by other objects
   // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
   // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;
@@ -83,6 +95,9 @@ class TrackingStep {
                            ParticleFilter& filter, Likelihood& likelihood);
 
   const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
+  // The other tracked objects' model points at their last poses (camera frame), for
+  // exclude_claimed_radius; kept until the next call.
+  void set_other_objects(std::span<const Eigen::Vector3f> points);
   // Forgets the holds in a row (a new object, or its filter reset).
   void reset() {
     held_in_row_ = 0;
@@ -90,10 +105,17 @@ class TrackingStep {
   }
 
  private:
+  // Removes the hypothesis points claimed by other objects (exclude_claimed_radius); returns how many.
+  std::size_t remove_claimed(const ObjectModel& model, const Pose& last);
+
   TrackingStepOptions options_;
   OcclusionTest occlusion_;
   HypothesisData hypothesis_;
   EstimateFit fit_;
+  SpatialHash others_;                // set_other_objects
+  std::vector<Eigen::Vector3f> others_points_;
+  SpatialHash own_;                   // the model at the last estimate, for exclude_claimed_radius
+  std::vector<Eigen::Vector3f> own_points_;
   int held_in_row_ = 0;
   float last_confidence_ = 0.f;
 };

@@ -157,4 +157,34 @@ void model_to_message(const ObjectModel& model, object_model_t& msg) {
   write_points(model.cloud.positions, model.cloud.colors, msg);
 }
 
+std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out) {
+  out.clear();
+  if (msg.num_claimed < 0) return "negative num_claimed";
+  const auto n = static_cast<std::size_t>(msg.num_claimed);
+  if (msg.claimed_x.size() != n || msg.claimed_y.size() != n || msg.claimed_z.size() != n) {
+    return "claimed array sizes disagree with num_claimed";
+  }
+  out.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!finite3(msg.claimed_x[i], msg.claimed_y[i], msg.claimed_z[i])) {
+      out.clear();
+      return "non-finite claimed point " + std::to_string(i);
+    }
+    out.emplace_back(msg.claimed_x[i], msg.claimed_y[i], msg.claimed_z[i]);
+  }
+  return std::nullopt;
+}
+
+void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg) {
+  msg.num_claimed = static_cast<std::int32_t>(claimed.size());
+  msg.claimed_x.resize(claimed.size());
+  msg.claimed_y.resize(claimed.size());
+  msg.claimed_z.resize(claimed.size());
+  for (std::size_t i = 0; i < claimed.size(); ++i) {
+    msg.claimed_x[i] = claimed[i].x();
+    msg.claimed_y[i] = claimed[i].y();
+    msg.claimed_z[i] = claimed[i].z();
+  }
+}
+
 }  // namespace mfot::service

@@ -16,7 +16,8 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 InprocessPipeline::InprocessPipeline(const InprocessOptions& options)
     : options_(options),
       preprocessor_(options.preprocess),
-      manager_(options.manager, make_object_discovery(options.manager.discovery)) {}
+      manager_(options.manager, make_object_discovery(options.manager.discovery)),
+      claimed_margin_(options.tracker.step.claimed_margin()) {}
 
 const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_t seq, const std::string& source_name) {
   const auto t0 = Clock::now();
@@ -39,6 +40,9 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   const auto t_track = Clock::now();
   std::map<std::int32_t, ObjectEstimate> estimates;
   for (auto& [id, tracker] : trackers_) {
+    // What the merger sends with each model (MergerCore::send_model).
+    if (claimed_margin_ > 0.f) manager_.claimed_points(id, claimed_margin_, claimed_);
+    tracker->set_other_objects(claimed_);
     const TrackingStepResult step = tracker->track(scene.cloud);
     estimates[id] = {step.estimate, step.confidence};
     spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "

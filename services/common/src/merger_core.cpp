@@ -24,6 +24,10 @@ void MergerCoreOptions::validate() const {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("frames: ") + e.what());
   }
+  if (!(claimed_margin >= 0.f && claimed_margin <= 1.f)) {
+    throw std::invalid_argument("MergerCoreOptions.claimed_margin must be in [0, 1] metres, got " +
+                                std::to_string(claimed_margin));
+  }
 }
 
 MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCounter& malformed,
@@ -33,7 +37,8 @@ MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCou
       frames_(options.frames),
       sink_(sink),
       malformed_(malformed),
-      clock_(std::move(clock)) {}
+      clock_(std::move(clock)),
+      claimed_margin_(options.claimed_margin) {}
 
 void MergerCore::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
   std::optional<Scene> scene = receive_scene(rbuf, channel_name, malformed_);
@@ -96,7 +101,9 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
 }
 
 void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq) {
-  sink_.send_model(manager_.objects().at(object_id), worker_id, workers_.instance_of(worker_id), frame_seq);
+  claimed_.clear();
+  if (claimed_margin_ > 0.f) manager_.claimed_points(object_id, claimed_margin_, claimed_);
+  sink_.send_model(manager_.objects().at(object_id), worker_id, workers_.instance_of(worker_id), frame_seq, claimed_);
 }
 
 int MergerCore::step() {

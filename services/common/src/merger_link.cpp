@@ -18,6 +18,7 @@ MergerCoreOptions merger_core_options(const MergerConfig& config) {
   options.frames.estimate_timeout = std::chrono::milliseconds(config.estimate_timeout_ms);
   options.frames.expected_workers = config.expected_workers;
   options.frames.startup_timeout = std::chrono::milliseconds(config.startup_timeout_ms);
+  options.claimed_margin = config.claimed_margin;
   return options;
 }
 
@@ -35,8 +36,8 @@ LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const Merger
 }
 
 void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                               std::int64_t frame_seq) {
-  const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, now_utime());
+                               std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) {
+  const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, claimed, now_utime());
   lcm_.publish(channel::kModel, &msg);
 }
 

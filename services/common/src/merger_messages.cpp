@@ -5,7 +5,7 @@
 namespace mfot::service {
 
 object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                             std::int64_t frame_seq, std::int64_t utime) {
+                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime) {
   object_model_t msg{};
   msg.utime = utime;
   msg.frame_seq = frame_seq;
@@ -16,6 +16,7 @@ object_model_t model_message(const ManagedObject& object, std::int32_t worker_id
   pose_to_arrays(object.pose, msg.position, msg.orientation);
   for (int i = 0; i < 6; ++i) msg.velocity[i] = object.velocity[i];
   model_to_message(object.model, msg);
+  claimed_to_message(claimed, msg);
   return msg;
 }
 

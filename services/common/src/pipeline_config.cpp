@@ -21,9 +21,13 @@ int auto_preprocess_threads() {
   return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
 
-// The tracker keys that the merger's re-identification registration shares: the JCSD cell and the
-// confidence measure (read the same way, with the same ranges, by both loaders).
+// The tracker keys that the merger shares: the JCSD cell and the confidence measure (its
+// re-identification registration), the hypothesis margin and the claim radius (what it sends with
+// each model); read the same way, with the same ranges, by both loaders.
 float read_cell_size(ConfigSection& tracker) { return tracker.get<float>("cell_size", 0.001f, 0.2f); }
+
+float read_hypothesis_margin(ConfigSection& tracker) { return tracker.get<float>("hypothesis_margin", 0.f, 1.f); }
+float read_claim_radius(ConfigSection& tracker) { return tracker.get<float>("exclude_claimed_radius", 0.f, 0.1f); }
 
 EstimateFitOptions read_fit_options(ConfigSection& tracker) {
   EstimateFitOptions fit;
@@ -93,7 +97,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
   c.filter.refine_translation = s.get<float>("refine_translation", 0.f, 0.1f);
   c.filter.refine_rotation = s.get<float>("refine_rotation", 0.f, 0.5f);
-  c.step.hypothesis.margin = s.get<float>("hypothesis_margin", 0.f, 1.f);
+  c.step.hypothesis.margin = read_hypothesis_margin(s);
   c.step.hold_occluded_share = s.get<float>("hold_occluded_share", 0.f, 1.f);
   c.step.max_hold_frames = s.get<int>("max_hold_frames", 1, 100000);
   c.step.exclude_occluders = s.get<bool>("exclude_occluders");
@@ -103,6 +107,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
       s.get<float>("own_surface_radius", 0.f, 0.1f);
   c.step.fit = read_fit_options(s);
   c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
+  c.step.exclude_claimed_radius = read_claim_radius(s);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
@@ -140,6 +145,11 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     auto tracker = config_section(root, "tracker");
     c.manager.registration.cell_size = read_cell_size(tracker);
     c.manager.registration.fit = read_fit_options(tracker);
+    // Each model carries what the other objects claim inside its tracker's hypothesis box.
+    TrackingStepOptions step;
+    step.hypothesis.margin = read_hypothesis_margin(tracker);
+    step.exclude_claimed_radius = read_claim_radius(tracker);
+    c.claimed_margin = step.claimed_margin();
   }
   c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 1, 1000);
   c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.01f, 1.f);

@@ -46,6 +46,10 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     malformed_.record(channel_name, "invalid model", "empty model assigned");
     return;
   }
+  if (auto error = claimed_from_message(msg, claimed_)) {
+    malformed_.record(channel_name, "invalid model", *error);
+    return;
+  }
   // A model older than (or the same as) the one held arrived late or again: keep ours.
   if (!scenes_.accepts_model(msg.object_id, msg.frame_seq)) return;
   const std::size_t points = model.cloud.size();
@@ -59,6 +63,8 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     malformed_.record(channel_name, "invalid model", e.what());
     return;
   }
+  // What the other objects claimed as of this model's frame goes with the scenes it releases.
+  tracker_.set_other_objects(claimed_);
   // Scenes the merger had already finished when it sent this model are not ours to track.
   scenes_.model_received(msg.object_id, msg.frame_seq);
 }

@@ -13,6 +13,7 @@
 #include "mfot/types.hpp"
 
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,5 +53,9 @@ inline constexpr float kMaxModelRadius = 1.5f;
 std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
                                               PoseVector& velocity);
 void model_to_message(const ObjectModel& model, object_model_t& msg);
+// The claimed points of a model message (num_claimed, claimed_x/y/z: camera frame, metres); an
+// error names what is wrong (sizes, a non-finite or implausibly far point), with out cleared.
+std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out);
+void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg);
 
 }  // namespace mfot::service

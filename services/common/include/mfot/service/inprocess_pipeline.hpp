@@ -60,6 +60,8 @@ class InprocessPipeline {
   Preprocessor preprocessor_;
   ObjectManager manager_;
   std::map<std::int32_t, std::unique_ptr<ObjectTracker>> trackers_;
+  float claimed_margin_ = 0.f;            // as the merger's (MergerConfig::claimed_margin)
+  std::vector<Eigen::Vector3f> claimed_;  // what the other objects claim near the object tracked
   InprocessFrame frame_;
 };
 

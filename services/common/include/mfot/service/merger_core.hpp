@@ -31,6 +31,10 @@ struct MergerCoreOptions {
   ObjectManagerOptions manager;
   WorkerPoolOptions workers;
   FrameAssemblerOptions frames;
+  // Each model goes out with the other objects' model points inside the object's box grown by
+  // this (metres, [0, 1]; the trackers' hypothesis margin plus their claim radius); 0 = none
+  // (tracker.exclude_claimed_radius 0).
+  float claimed_margin = 0.f;
 
   // Throws std::invalid_argument naming the field and its range.
   void validate() const;
@@ -52,9 +56,10 @@ class MergerSink {
   virtual ~MergerSink() = default;
 
   // The object's model and pose as of frame `frame_seq`, addressed to `worker_id` (its owner, or
-  // -1: nobody owns it now) and that worker's process `worker_instance` (0 when unknown).
+  // -1: nobody owns it now) and that worker's process `worker_instance` (0 when unknown), with what
+  // the other objects claim near it (ObjectManager::claimed_points; empty when not asked for).
   virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                          std::int64_t frame_seq) = 0;
+                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) = 0;
   virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq) = 0;
   // A scene as received, for workers that lost it.
   virtual void resend_scene(std::span<const std::uint8_t> message) = 0;
@@ -97,7 +102,9 @@ class MergerCore {
   MergerSink& sink_;
   MalformedCounter& malformed_;
   std::function<Clock::time_point()> clock_;
+  float claimed_margin_;                   // MergerCoreOptions::claimed_margin
   std::vector<std::int32_t> object_ids_;  // scratch: the objects in id order
+  std::vector<Eigen::Vector3f> claimed_;   // scratch: what the other objects claim near one
 };
 
 }  // namespace mfot::service

@@ -26,7 +26,7 @@ class LcmMergerLink : public MergerSink {
                 const std::optional<std::string>& output_dir, bool append);
 
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq) override;
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) override;
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override;
   void resend_scene(std::span<const std::uint8_t> message) override;
   void publish_frame(const FinishedFrame& frame) override;

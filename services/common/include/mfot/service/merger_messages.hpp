@@ -14,9 +14,9 @@
 namespace mfot::service {
 
 // The object's model and pose as of frame `frame_seq`, for `worker_id` (-1: nobody owns it) in
-// its process `worker_instance`.
+// its process `worker_instance`, with the other objects' points claimed near it (camera frame).
 object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                             std::int64_t frame_seq, std::int64_t utime);
+                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime);
 // worker_id = -1, num_points = 0: the object is gone.
 object_model_t retirement_message(std::int32_t object_id, std::int64_t frame_seq, std::int64_t utime);
 // Every object's pose in the camera and world frame, velocity per second (`fps` frames a second).

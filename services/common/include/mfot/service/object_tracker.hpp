@@ -39,6 +39,9 @@ class ObjectTracker {
   bool set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose);
   // The object went to another tracker or was retired.
   void drop();
+  // The other objects' model points at their last poses (camera frame), for the step's
+  // exclude_claimed_radius.
+  void set_other_objects(std::span<const Eigen::Vector3f> points) { step_.set_other_objects(points); }
   // Step 2, on the object held (has_object()).
   TrackingStepResult track(const ColoredCloud& scene);
 

@@ -40,6 +40,8 @@ struct MergerConfig {
   bool fitting_distance = true;
   Pose world_from_camera;
   float fps = 30.f;
+  // MergerCoreOptions::claimed_margin: TrackingStepOptions::claimed_margin() of the tracker keys.
+  float claimed_margin = 0.f;
 };
 
 // Every key is read from `root` (a config laid over the defaults, load_config_file) and documented

@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace mfot::service {
 
@@ -74,6 +75,7 @@ class TrackerWorker {
   std::function<Clock::time_point()> clock_;
   ObjectTracker tracker_;
   TrackerSceneQueue scenes_;
+  std::vector<Eigen::Vector3f> claimed_;  // of the last model taken
   Clock::time_point next_heartbeat_{};
   std::int64_t skipped_at_heartbeat_ = 0;
   std::int64_t reported_fallbacks_ = 0;
