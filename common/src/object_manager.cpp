@@ -152,6 +152,12 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     }
     forget(id);
   }
+  // A retired object's few segmented points are unexplained now: they must not pass its id on.
+  if (!frame_.retired.empty()) {
+    for (std::int32_t& label : frame_.labels) {
+      if (label != 0 && !objects_.contains(label)) label = 0;
+    }
+  }
   std::erase_if(retired_, [&](const auto& entry) {
     return frames_ - entry.second.retired_frame >= options_.reidentify_frames;
   });

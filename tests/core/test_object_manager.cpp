@@ -126,6 +126,36 @@ TEST(ObjectManager, DiscoveredPartsBelowTheObjectMinimumAreNoObjects) {
   EXPECT_EQ(frame.created, (std::vector<std::int32_t>{1}));
 }
 
+TEST(ObjectManager, ARetiredObjectsLastPointsPassNoLabelOn) {
+  TwoBlocks scene;
+  ObjectManagerOptions options;
+  options.support.max_frames = 3;
+  options.growth_frames = 0;
+  ObjectManager manager(options);
+  manager.process(scene.cloud, scene.cluster, {});
+  // Ten points of the second block stay (too few to support it), in one cluster with points no
+  // model explains (1.15 cm from its model, within the propagation radius of those ten).
+  ColoredCloud later;
+  std::vector<std::int32_t> cluster;
+  add_block(later, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  add_block(later, cluster, 1, {0.1f, 0.f, 1.f}, {1, 2, 5});
+  const std::size_t first_new = later.size();
+  add_block(later, cluster, 1, {0.1f, -0.0265f, 1.f}, {4, 4, 6});
+  std::vector<std::int32_t> retired;
+  for (int t = 0; t < 3; ++t) {
+    const ObjectManagerFrame* frame = nullptr;
+    ASSERT_NO_THROW(frame = &manager.process(later, cluster, unchanged(manager))) << "frame " << t;
+    retired.insert(retired.end(), frame->retired.begin(), frame->retired.end());
+    if (t < 2) {
+      EXPECT_EQ(frame->labels[first_new], 2) << "propagated from the second block's points";
+    } else {
+      // Retired this frame: its points and what they reached are unexplained.
+      for (std::size_t i = 12 * 12 * 6; i < later.size(); ++i) EXPECT_NE(frame->labels[i], 2) << i;
+    }
+  }
+  EXPECT_EQ(retired, (std::vector<std::int32_t>{2}));
+}
+
 TEST(ObjectManager, KeepsSegmentingAndMarksMissingEstimatesStale) {
   TwoBlocks scene;
   ObjectManager manager;
