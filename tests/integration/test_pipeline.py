@@ -48,7 +48,10 @@ def results(log: Path, types) -> dict[str, list[bytes]]:
 
 # Segmentation accuracy of the default scenarios in the README's accuracy table (default config, CPU); the
 # CI gates allow half a point below them.
-README_SEGMENTATION = {"stack": 0.9965, "contact": 0.9984}
+README_SEGMENTATION = {"stack": 0.9965, "contact": 0.9984, "rotate": 0.9980}
+# The median rotation error of the box the hand grips and turns in `rotate` (README "Measured": 1.1 deg since the
+# trackers leave the points other objects claim out, 1.2-1.5 deg before, 11 deg on scene seed 3).
+README_ROTATED_BOX_MEDIAN_DEG = 1.1
 
 
 def run_inprocess(tmp: Path, scenario: str, *args: str) -> dict:
@@ -112,6 +115,18 @@ class PipelineTest(unittest.TestCase):
             ev = run_inprocess(Path(tmp), "contact")
             self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["contact"] - 0.005)
             self.assertEqual(ev["tracks_lost"], 0)
+
+    def test_rotate_accuracy(self):
+        """The whole `rotate` scenario in process (a hand grips a box and turns it about each axis): segmentation
+        within half a point of the README's figure, the turned box's median rotation error within half a degree of
+        it, nothing lost."""
+        with tempfile.TemporaryDirectory() as tmp:
+            ev = run_inprocess(Path(tmp), "rotate")
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["rotate"] - 0.005)
+            self.assertEqual(ev["tracks_lost"], 0)
+            box = next(o for o in ev["objects"] if o["groundtruth_id"] == 1)
+            self.assertFalse(box["is_hand"])
+            self.assertLessEqual(box["pose_error"]["rotation_median_deg"], README_ROTATED_BOX_MEDIAN_DEG + 0.5)
 
     def test_inprocess_static_scene(self):
         """The in-process pipeline (no LCM) finds and holds the three objects of the static scene."""
