@@ -31,14 +31,11 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "lambda must be in (0, 1000], got " + std::to_string(o.lambda));
   require(o.resampling == ResamplingScheme::kMultinomial || o.resampling == ResamplingScheme::kSystematic,
           "resampling must be kMultinomial or kSystematic");
-  require(o.predicted_fraction >= 0.f && o.predicted_fraction <= 1.f,
-          "predicted_fraction must be in [0, 1], got " + std::to_string(o.predicted_fraction));
   require(o.anneal_iterations >= 1 && o.anneal_iterations <= 10,
           "anneal_iterations must be in [1, 10], got " + std::to_string(o.anneal_iterations));
   require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
           "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
-  require(o.refine_rounds >= 0 && o.refine_rounds <= 20,
-          "refine_rounds must be in [0, 20], got " + std::to_string(o.refine_rounds));
+  StepMotion{o.predicted_fraction, o.refine_rounds}.validate("ParticleFilterOptions");
   require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
           "refine_translation must be in [0, 0.1] m, got " + std::to_string(o.refine_translation));
   require(std::isfinite(o.refine_rotation) && o.refine_rotation >= 0.f && o.refine_rotation <= 0.5f,
@@ -47,6 +44,16 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
 }
 
 }  // namespace
+
+void StepMotion::validate(const std::string& owner) const {
+  if (!(predicted_fraction >= 0.f && predicted_fraction <= 1.f)) {
+    throw std::invalid_argument(owner + ".predicted_fraction must be in [0, 1], got " +
+                                std::to_string(predicted_fraction));
+  }
+  if (!(refine_rounds >= 0 && refine_rounds <= 20)) {
+    throw std::invalid_argument(owner + ".refine_rounds must be in [0, 20], got " + std::to_string(refine_rounds));
+  }
+}
 
 Eigen::Quaternionf rotation_from_rpy(const Eigen::Vector3f& rpy) {
   const Eigen::Quaternionf q = Eigen::AngleAxisf(rpy.z(), Eigen::Vector3f::UnitZ()) *
@@ -192,10 +199,10 @@ void ParticleFilter::diffuse(float scale) {
   }
 }
 
-void ParticleFilter::diffuse_and_predict() {
+void ParticleFilter::diffuse_and_predict(float predicted_fraction) {
   const float sqrt_a = std::sqrt(options_.a);
   const float sqrt_b = std::sqrt(options_.b);
-  const double fraction = options_.predicted_fraction;
+  const double fraction = predicted_fraction;
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     // N(0, a dX dX^T + b C_init) as the sum of two independent Gaussians (2.14).
     PoseVector noise = sqrt_a * standard_normal() * velocity_;
@@ -210,10 +217,15 @@ void ParticleFilter::diffuse_and_predict() {
 }
 
 const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood) {
+  return step(data, likelihood, StepMotion{options_.predicted_fraction, options_.refine_rounds});
+}
+
+const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion) {
   if (!initialised_) throw std::logic_error("ParticleFilter::step called before reset()");
+  motion.validate();
   if (resample_pending_) {
     resample();
-    diffuse_and_predict();
+    diffuse_and_predict(motion.predicted_fraction);
   }
   likelihood.evaluate(particles_, data, scores_);
   likelihood_weights(scores_, options_.lambda, weights_);
@@ -227,18 +239,18 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   }
   const Pose previous = estimate_;
   estimate_ = weighted_pose_mean(particles_, weights_, previous.rotation);
-  if (options_.refine_rounds > 0) refine(data, likelihood);
+  if (motion.refine_rounds > 0) refine(data, likelihood, motion.refine_rounds);
   velocity_ = pose_difference(previous, estimate_);
   resample_pending_ = true;
   return estimate_;
 }
 
-void ParticleFilter::refine(const HypothesisData& data, Likelihood& likelihood) {
+void ParticleFilter::refine(const HypothesisData& data, Likelihood& likelihood, int rounds) {
   float translation = options_.refine_translation;
   float rotation = options_.refine_rotation;
   candidates_.resize(kPatternMoves);
   candidate_scores_.resize(kPatternMoves);
-  for (int round = 0; round < options_.refine_rounds; ++round) {
+  for (int round = 0; round < rounds; ++round) {
     pattern_moves(estimate_, translation, rotation, std::span<Pose, kPatternMoves>(candidates_.data(), kPatternMoves));
     likelihood.evaluate(candidates_, data, candidate_scores_);
     // The first of equal scores wins, so the estimate stays unless a move scores higher.

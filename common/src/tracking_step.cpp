@@ -36,6 +36,12 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.exclude_claimed_radius must be in [0, 0.1] metres, got " +
                                 std::to_string(exclude_claimed_radius));
   }
+  isolated_motion.validate("TrackingStepOptions.isolated_motion");
+  if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
+    throw std::invalid_argument(
+        "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
+        "are what tells it is isolated");
+  }
   if (!(max_hold_frames >= 1 && max_hold_frames <= 100000)) {
     throw std::invalid_argument("TrackingStepOptions.max_hold_frames must be in [1, 100000], got " +
                                 std::to_string(max_hold_frames));
@@ -46,12 +52,12 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
     : options_(validated(options)),
       occlusion_(options.occlusion),
       fit_(options.fit),
-      others_(std::max(options.exclude_claimed_radius, 1e-3f)),
+      claimed_hash_(std::max(options.exclude_claimed_radius, 1e-3f)),
       own_(std::max(options.exclude_claimed_radius, 1e-3f)) {}
 
-void TrackingStep::set_other_objects(std::span<const Eigen::Vector3f> points) {
-  others_points_.assign(points.begin(), points.end());
-  others_.build(others_points_);
+void TrackingStep::set_claimed_points(std::span<const Eigen::Vector3f> points) {
+  claimed_points_.assign(points.begin(), points.end());
+  claimed_hash_.build(claimed_points_);
 }
 
 TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectModel& model,
@@ -84,12 +90,14 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   if (options_.exclude_occluders && !result.hold_expired) {
     result.occluders_removed = occlusion_.remove_occluders(hypothesis_);
   }
-  if (options_.exclude_claimed_radius > 0.f && !others_points_.empty()) {
+  if (options_.exclude_claimed_radius > 0.f && !claimed_points_.empty()) {
     result.claimed_removed = remove_claimed(model, last);
   }
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
-  result.estimate = filter.step(hypothesis_, likelihood);
+  result.isolated = options_.follow_isolated && claimed_points_.empty();
+  result.estimate = result.isolated ? filter.step(hypothesis_, likelihood, options_.isolated_motion)
+                                    : filter.step(hypothesis_, likelihood);
   result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
 }
@@ -104,7 +112,7 @@ std::size_t TrackingStep::remove_claimed(const ObjectModel& model, const Pose& l
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = hypothesis_.points[i];
     float other_sq = 0.f;
-    bool claimed = others_.nearest(p, radius, &other_sq) >= 0;
+    bool claimed = claimed_hash_.nearest(p, radius, &other_sq) >= 0;
     if (claimed) {
       float own_sq = 0.f;
       if (own_.nearest(p, std::sqrt(other_sq), &own_sq) >= 0 && own_sq <= other_sq) claimed = false;

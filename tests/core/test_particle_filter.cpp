@@ -113,7 +113,8 @@ struct TrackResult {
   float ramp_max_rotation_error = 0.f;
 };
 
-TrackResult track(const MovingObject& scene, const ParticleFilterOptions& options) {
+// motion: each step's StepMotion in place of the options' (nullptr: step with the options').
+TrackResult track(const MovingObject& scene, const ParticleFilterOptions& options, const StepMotion* motion = nullptr) {
   JcsdLikelihood likelihood;
   likelihood.set_model(scene.model);
   ParticleFilter filter(options);
@@ -127,7 +128,7 @@ TrackResult track(const MovingObject& scene, const ParticleFilterOptions& option
     frame_points.push_back(truth.translation + Eigen::Vector3f(0.4f, 0.f, 0.f), Rgb8{255, 0, 0});  // clutter
     const std::vector<SmrFeature> features = compute_smr(frame_points.colors);
     select_hypothesis_data(frame_points, features, scene.model, filter.estimate(), HypothesisOptions{0.06f}, data);
-    const Pose estimate = filter.step(data, likelihood);
+    const Pose estimate = motion != nullptr ? filter.step(data, likelihood, *motion) : filter.step(data, likelihood);
     r.estimates.push_back(estimate);
     const float te = test::translation_error(estimate, truth);
     const float re = test::rotation_error(estimate, truth);
@@ -177,6 +178,33 @@ TEST(ParticleFilter, RefinementFollowsAThinParticleSetCloser) {
   EXPECT_LT(refined.mean_rotation_error, 0.8f * mean_only.mean_rotation_error);
   EXPECT_LT(refined.mean_translation_error, mean_only.mean_translation_error);
   EXPECT_LT(degrees(refined.max_rotation_error), 15.f);  // never lost (the mean-only filter is, at 54 deg)
+}
+
+TEST(ParticleFilter, AStepsMotionTakesThePlaceOfTheOptions) {
+  const MovingObject scene;
+  ParticleFilterOptions thesis = tracking_options(7);
+  thesis.num_particles = 30;
+  thesis.predicted_fraction = 0.5f;
+  ParticleFilterOptions harder = thesis;
+  harder.predicted_fraction = 0.9f;
+  harder.refine_rounds = 3;
+  const StepMotion follow{harder.predicted_fraction, harder.refine_rounds};
+  const TrackResult by_options = track(scene, harder);
+  const TrackResult by_step = track(scene, thesis, &follow);
+  const TrackResult plain = track(scene, thesis);
+  ASSERT_EQ(by_step.estimates.size(), by_options.estimates.size());
+  for (std::size_t k = 0; k < by_step.estimates.size(); ++k) {
+    ASSERT_EQ(by_step.estimates[k].translation, by_options.estimates[k].translation) << "frame " << k + 1;
+    ASSERT_EQ(by_step.estimates[k].rotation.coeffs(), by_options.estimates[k].rotation.coeffs()) << "frame " << k + 1;
+  }
+  EXPECT_LT(by_step.mean_rotation_error, 0.8f * plain.mean_rotation_error);
+
+  JcsdLikelihood likelihood;
+  likelihood.set_model(scene.model);
+  ParticleFilter filter(thesis);
+  filter.reset(scene.pose_at(0));
+  EXPECT_THROW(filter.step(HypothesisData{}, likelihood, StepMotion{1.5f, 0}), std::invalid_argument);
+  EXPECT_THROW(filter.step(HypothesisData{}, likelihood, StepMotion{0.5f, 21}), std::invalid_argument);
 }
 
 TEST(ParticleFilter, AnnealingNarrowsAThinParticleSetOnTheObject) {
@@ -297,6 +325,7 @@ TEST(ParticleFilter, InvalidOptionsThrow) {
   bad([](ParticleFilterOptions& o) { o.b = std::nanf(""); });
   bad([](ParticleFilterOptions& o) { o.lambda = 0.f; });
   bad([](ParticleFilterOptions& o) { o.predicted_fraction = 1.5f; });
+  bad([](ParticleFilterOptions& o) { o.refine_rounds = -1; });
 }
 
 }  // namespace

@@ -123,7 +123,7 @@ TEST(TrackingStep, LeavesThePointsAnotherObjectClaimsOutOfTheLikelihood) {
 
   // The hand's model claims the fingers: exactly they are left out; the box's own face 5 mm away
   // is nearer to the box's model and stays.
-  step.set_other_objects(setup.fingers);
+  step.set_claimed_points(setup.fingers);
   for (int frame = 0; frame < 30; ++frame) {
     const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
     ASSERT_EQ(r.claimed_removed, setup.fingers.size()) << "frame " << frame;
@@ -137,12 +137,61 @@ TEST(TrackingStep, LeavesThePointsAnotherObjectClaimsOutOfTheLikelihood) {
   TrackingStepOptions thesis = occlusion_aware();
   TrackingStep plain(thesis);
   EXPECT_EQ(thesis.claimed_margin(), 0.f);
-  plain.set_other_objects(setup.fingers);
+  plain.set_claimed_points(setup.fingers);
   ParticleFilter plain_filter(filter_options());
   plain_filter.reset(setup.truth);
   const TrackingStepResult all = plain.track(scene, setup.model, box, plain_filter, likelihood);
   EXPECT_EQ(all.claimed_removed, 0u);
   EXPECT_EQ(all.hypothesis_points, scene.size());
+}
+
+// follow_isolated: with no other object's points near, the filter steps with isolated_motion; with
+// the hand's near, with its own options. Checked against filters stepped directly with each.
+TEST(TrackingStep, FollowsAnIsolatedObjectWithTheIsolatedMotion) {
+  const FingersOnBox setup;
+  const ColoredCloud scene = setup.scene();
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStepOptions options = occlusion_aware();
+  options.exclude_claimed_radius = 0.01f;
+  options.follow_isolated = true;
+  options.isolated_motion = StepMotion{0.9f, 2};
+  ParticleFilterOptions filter_o = filter_options();
+  ASSERT_NE(filter_o.predicted_fraction, options.isolated_motion.predicted_fraction);
+  ASSERT_NE(filter_o.refine_rounds, options.isolated_motion.refine_rounds);
+
+  // The step's filter against filters stepped by hand on the points the step scored.
+  const auto check = [&](bool claimed) {
+    TrackingStep step(options);
+    if (claimed) step.set_claimed_points(setup.fingers);
+    ParticleFilter filter(filter_o);
+    ParticleFilter isolated_filter(filter_o);
+    ParticleFilter plain_filter(filter_o);
+    for (ParticleFilter* f : {&filter, &isolated_filter, &plain_filter}) f->reset(setup.truth);
+    for (int frame = 0; frame < 5; ++frame) {
+      const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
+      ASSERT_EQ(r.isolated, !claimed) << "frame " << frame;
+      const Pose isolated = isolated_filter.step(step.hypothesis(), likelihood, options.isolated_motion);
+      const Pose plain = plain_filter.step(step.hypothesis(), likelihood);
+      const Pose& expected = claimed ? plain : isolated;
+      const Pose& other = claimed ? isolated : plain;
+      ASSERT_EQ(r.estimate.translation, expected.translation) << "frame " << frame;
+      ASSERT_EQ(r.estimate.rotation.coeffs(), expected.rotation.coeffs()) << "frame " << frame;
+      if (frame > 0) {
+        EXPECT_NE(r.estimate.translation, other.translation) << "frame " << frame;
+      }
+    }
+  };
+  check(false);
+  check(true);
+
+  // Off: the filter's own options, claims or not.
+  options.follow_isolated = false;
+  TrackingStep off(options);
+  ParticleFilter filter(filter_o);
+  filter.reset(setup.truth);
+  EXPECT_FALSE(off.track(scene, setup.model, box, filter, likelihood).isolated);
 }
 
 TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
@@ -308,6 +357,13 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.exclude_claimed_radius = 0.2f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o.exclude_claimed_radius = -0.01f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
+  o.follow_isolated = true;  // nothing can tell it is isolated without the claims
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.exclude_claimed_radius = 0.01f;
+  EXPECT_NO_THROW(TrackingStep{o});
+  o.isolated_motion.predicted_fraction = 2.f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
 }
 

@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mfot::service {
@@ -128,6 +129,30 @@ TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
       EXPECT_NE(std::string(e.what()).find("exclude_claimed_radius"), std::string::npos) << e.what();
     }
     EXPECT_THROW(load_merger_config(with_defaults(bad)), ConfigError);
+  }
+}
+
+TEST(Config, TheIsolatedMotionKeysReachTheStep) {
+  const TrackerConfig c = load_tracker_config(
+      with_defaults("tracker:\n  follow_isolated: true\n  isolated_predicted_fraction: 0.9\n  isolated_refine_rounds: 4\n"));
+  EXPECT_TRUE(c.step.follow_isolated);
+  EXPECT_FLOAT_EQ(c.step.isolated_motion.predicted_fraction, 0.9f);
+  EXPECT_EQ(c.step.isolated_motion.refine_rounds, 4);
+  EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
+  // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
+  EXPECT_NO_THROW(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
+  const std::pair<std::string, std::string> bad[] = {
+      {"tracker:\n  follow_isolated: true\n  exclude_claimed_radius: 0\n", "follow_isolated"},
+      {"tracker:\n  isolated_predicted_fraction: 1.5\n", "isolated_predicted_fraction"},
+      {"tracker:\n  isolated_refine_rounds: 21\n", "isolated_refine_rounds"},
+  };
+  for (const auto& [yaml, key] : bad) {
+    try {
+      load_tracker_config(with_defaults(yaml));
+      FAIL() << yaml << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
   }
 }
 

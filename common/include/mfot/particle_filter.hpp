@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <random>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace mfot {
@@ -44,6 +45,15 @@ struct ParticleFilterOptions {
   float anneal_shrink = 0.5f;       // (0, 1]
   float refine_translation = 0.002f;  // metres, [0, 0.1]
   float refine_rotation = 0.0175f;    // radians, [0, 0.5]
+};
+
+// How hard one step follows the object's motion: the two settings of ParticleFilterOptions that a
+// caller may change from frame to frame (TrackingStep follows an isolated object harder).
+struct StepMotion {
+  float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
+  int refine_rounds = 0;            // pattern-search rounds on the estimate (step 6); [0, 20]
+  // Throws std::invalid_argument naming the field as owner.field.
+  void validate(const std::string& owner = "StepMotion") const;
 };
 
 // Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
@@ -99,6 +109,9 @@ class ParticleFilter {
   // One filter iteration (steps above); returns the new estimate. Throws std::logic_error before
   // the first reset().
   const Pose& step(const HypothesisData& data, Likelihood& likelihood);
+  // The same with this frame's predicted_fraction and refine_rounds in place of the options'
+  // (validated: throws std::invalid_argument).
+  const Pose& step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion);
   // A frame whose data cannot show the object (hidden behind nearer surfaces; the caller
   // decides, e.g. with OcclusionTest): no step, the estimate stays and dX becomes 0, since the
   // hidden motion is unknown and the last one would carry the particles off. The particles and
@@ -120,9 +133,9 @@ class ParticleFilter {
   double uniform01();
   float standard_normal();
   void resample();
-  void diffuse_and_predict();
+  void diffuse_and_predict(float predicted_fraction);
   void diffuse(float scale);  // N(0, scale^2 C_init) on every particle
-  void refine(const HypothesisData& data, Likelihood& likelihood);
+  void refine(const HypothesisData& data, Likelihood& likelihood, int rounds);
 
   ParticleFilterOptions options_;
   std::mt19937_64 rng_;

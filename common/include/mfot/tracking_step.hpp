@@ -47,11 +47,21 @@ struct TrackingStepOptions {
   // distance of another tracked object's model at its last pose, and nearer to it than to this
   // object's model at its last estimate, is left out of the likelihood (the fingers gripping a box
   // lie within a centimetre of its faces and pull its estimate onto the hand). Metres [0, 0.1];
-  // 0 = score them (thesis). Needs set_other_objects().
+  // 0 = score them (thesis). Needs set_claimed_points().
   float exclude_claimed_radius = 0.f;
   // How far beyond the model's box the other objects' points matter (ObjectManager::claimed_points):
   // the hypothesis margin plus the claim radius; 0 when the claim radius is 0.
   float claimed_margin() const { return exclude_claimed_radius > 0.f ? hypothesis.margin + exclude_claimed_radius : 0.f; }
+  // How hard the filter follows the motion of an isolated object (departure from the thesis): in a
+  // frame where no other tracked object's model lies within claimed_margin() of this object's box
+  // (set_claimed_points gave none), the filter steps with these settings instead of its options'.
+  // Without a hand or a neighbour near it, the score's mode is the object, and following it harder
+  // (more particles moved by dX, a pattern search on the score) keeps up with fast turns; where a hand
+  // grips the object the mode lies partly on the hand, and the thesis's broad step holds it better
+  // (README "Motion-model options"). Needs exclude_claimed_radius > 0 (else no object is known to be
+  // isolated); equal to the filter's options = the thesis everywhere.
+  bool follow_isolated = false;
+  StepMotion isolated_motion;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -63,6 +73,7 @@ struct TrackingStepResult {
   std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
   std::size_t claimed_removed = 0;      // left out as claimed by other objects
+  bool isolated = false;                // stepped with isolated_motion (no other object near)
   // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
   // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;
@@ -74,9 +85,13 @@ struct TrackingStepResult {
 //  2. select the hypothesis data around the last estimate (3.3);
 //  3. when exclude_occluders (and the hold has not expired): remove the points in front of the
 //     model at the last estimate;
+//  3b. when exclude_claimed_radius > 0: remove the points that another object's model (the points
+//     of set_claimed_points) lies within that radius of, and nearer than this model at the last
+//     estimate;
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
-//  5. step the filter with the likelihood on what is left;
+//  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
+//     and no other object's model is near);
 //  6. measure the confidence of the new estimate on the same points (EstimateFit).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
@@ -95,9 +110,9 @@ class TrackingStep {
                            ParticleFilter& filter, Likelihood& likelihood);
 
   const HypothesisData& hypothesis() const { return hypothesis_; }  // of the last track()
-  // The other tracked objects' model points at their last poses (camera frame), for
-  // exclude_claimed_radius; kept until the next call.
-  void set_other_objects(std::span<const Eigen::Vector3f> points);
+  // The other tracked objects' model points at their last poses near this object (camera frame;
+  // ObjectManager::claimed_points), for exclude_claimed_radius; kept until the next call.
+  void set_claimed_points(std::span<const Eigen::Vector3f> points);
   // Forgets the holds in a row (a new object, or its filter reset).
   void reset() {
     held_in_row_ = 0;
@@ -112,8 +127,8 @@ class TrackingStep {
   OcclusionTest occlusion_;
   HypothesisData hypothesis_;
   EstimateFit fit_;
-  SpatialHash others_;                // set_other_objects
-  std::vector<Eigen::Vector3f> others_points_;
+  SpatialHash claimed_hash_;                // set_claimed_points
+  std::vector<Eigen::Vector3f> claimed_points_;
   SpatialHash own_;                   // the model at the last estimate, for exclude_claimed_radius
   std::vector<Eigen::Vector3f> own_points_;
   int held_in_row_ = 0;

@@ -42,7 +42,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   for (auto& [id, tracker] : trackers_) {
     // What the merger sends with each model (MergerCore::send_model).
     if (claimed_margin_ > 0.f) manager_.claimed_points(id, claimed_margin_, claimed_);
-    tracker->set_other_objects(claimed_);
+    tracker->set_claimed_points(claimed_);
     const TrackingStepResult step = tracker->track(scene.cloud);
     estimates[id] = {step.estimate, step.confidence};
     spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "

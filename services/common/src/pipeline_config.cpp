@@ -108,13 +108,17 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.fit = read_fit_options(s);
   c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
   c.step.exclude_claimed_radius = read_claim_radius(s);
+  c.step.follow_isolated = s.get<bool>("follow_isolated");
+  c.step.isolated_motion.predicted_fraction = s.get<float>("isolated_predicted_fraction", 0.f, 1.f);
+  c.step.isolated_motion.refine_rounds = s.get<int>("isolated_refine_rounds", 0, 20);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
       std::chrono::milliseconds(s.get<int>("model_wait_ms", 1, 600000));
   s.finish();
   try {
-    const ParticleFilter validate_only(c.filter);  // the filter validates its options
+    const ParticleFilter validate_only(c.filter);  // the filter and the step validate their options
+    c.step.validate();
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("tracker: ") + e.what());
   }

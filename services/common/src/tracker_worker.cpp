@@ -64,7 +64,7 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     return;
   }
   // What the other objects claimed as of this model's frame goes with the scenes it releases.
-  tracker_.set_other_objects(claimed_);
+  tracker_.set_claimed_points(claimed_);
   // Scenes the merger had already finished when it sent this model are not ours to track.
   scenes_.model_received(msg.object_id, msg.frame_seq);
 }

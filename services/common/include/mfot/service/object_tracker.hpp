@@ -41,7 +41,7 @@ class ObjectTracker {
   void drop();
   // The other objects' model points at their last poses (camera frame), for the step's
   // exclude_claimed_radius.
-  void set_other_objects(std::span<const Eigen::Vector3f> points) { step_.set_other_objects(points); }
+  void set_claimed_points(std::span<const Eigen::Vector3f> points) { step_.set_claimed_points(points); }
   // Step 2, on the object held (has_object()).
   TrackingStepResult track(const ColoredCloud& scene);
 
