@@ -71,6 +71,19 @@ class RocTest(unittest.TestCase):
         except ModuleNotFoundError as e:
             self.skipTest(str(e))
 
+    def test_object_errors_take_the_worst_objects_median_and_a_cans_observable_rotation(self):
+        def obj(median, maximum, symmetric=False, frames=10, observable=(0.0, 0.0)):
+            return {"symmetric": symmetric, "pose_error": {
+                "frames": frames, "rotation_median_deg": median, "rotation_max_deg": maximum,
+                "observable_rotation_median_deg": observable[0], "observable_rotation_max_deg": observable[1],
+                "translation_median_mm": 1.0, "translation_max_mm": 2.0}}
+        e = self.module.object_errors([obj(2.4, 11.0), obj(0.5, 3.0), obj(9.0, 40.0, symmetric=True, observable=(0.6, 4.0)),
+                                       obj(50.0, 90.0, frames=0)])
+        self.assertEqual(e["rotation_worst_median_deg"], 2.4)  # not the median of medians (0.6)
+        self.assertEqual(e["rotation_median_deg"], 0.6)
+        self.assertEqual(e["rotation_max_deg"], 11.0)  # the can's 40 deg about its axis and the uncompared one left out
+        self.assertEqual(self.module.object_errors([])["rotation_worst_median_deg"], 0.0)
+
     def test_auc_of_a_perfect_a_useless_and_an_inverted_confidence(self):
         auc = self.module.roc_auc
         self.assertEqual(auc([(0.1, True), (0.2, True), (0.8, False), (0.9, False)]), 1.0)
