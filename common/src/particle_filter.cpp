@@ -158,6 +158,7 @@ void ParticleFilter::reset(const Pose& pose) {
   velocity_.setZero();
   initialised_ = true;
   resample_pending_ = false;
+  stepped_last_ = false;
 }
 
 void ParticleFilter::resample() {
@@ -237,11 +238,12 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
     likelihood.evaluate(particles_, data, scores_);
     likelihood_weights(scores_, options_.lambda, weights_);
   }
-  const Pose previous = estimate_;
-  estimate_ = weighted_pose_mean(particles_, weights_, previous.rotation);
+  previous_estimate_ = estimate_;
+  estimate_ = weighted_pose_mean(particles_, weights_, previous_estimate_.rotation);
   if (motion.refine_rounds > 0) refine(data, likelihood, motion.refine_rounds);
-  velocity_ = pose_difference(previous, estimate_);
+  velocity_ = pose_difference(previous_estimate_, estimate_);
   resample_pending_ = true;
+  stepped_last_ = true;
   return estimate_;
 }
 
@@ -264,6 +266,14 @@ void ParticleFilter::refine(const HypothesisData& data, Likelihood& likelihood, 
 const Pose& ParticleFilter::hold() {
   if (!initialised_) throw std::logic_error("ParticleFilter::hold called before reset()");
   velocity_.setZero();
+  stepped_last_ = false;
+  return estimate_;
+}
+
+const Pose& ParticleFilter::replace_estimate(const Pose& pose) {
+  if (!stepped_last_) throw std::logic_error("ParticleFilter::replace_estimate called without a step() before it");
+  estimate_ = pose;
+  velocity_ = pose_difference(previous_estimate_, estimate_);
   return estimate_;
 }
 

@@ -37,6 +37,7 @@ void TrackingStepOptions::validate() const {
                                 std::to_string(exclude_claimed_radius));
   }
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
+  isolated_icp.validate("TrackingStepOptions.isolated_icp");
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
         "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
@@ -52,6 +53,7 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
     : options_(validated(options)),
       occlusion_(options.occlusion),
       fit_(options.fit),
+      icp_(options.isolated_icp),
       claimed_hash_(std::max(options.exclude_claimed_radius, 1e-3f)),
       own_(std::max(options.exclude_claimed_radius, 1e-3f)) {}
 
@@ -98,6 +100,11 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   result.isolated = options_.follow_isolated && claimed_points_.empty();
   result.estimate = result.isolated ? filter.step(hypothesis_, likelihood, options_.isolated_motion)
                                     : filter.step(hypothesis_, likelihood);
+  if (result.isolated && options_.isolated_icp.iterations > 0) {
+    const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
+    result.icp_refined = icp.refined;
+    if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
+  }
   result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
 }

@@ -304,6 +304,28 @@ TEST(ParticleFilter, HoldKeepsTheEstimateAndForgetsTheMotion) {
   EXPECT_LT(test::translation_error(filter.estimate(), scene.pose_at(6)), 0.003f);
 }
 
+TEST(ParticleFilter, AReplacedEstimateGivesTheNextPrediction) {
+  const MovingObject scene;
+  JcsdLikelihood likelihood;
+  likelihood.set_model(scene.model);
+  ParticleFilter filter(tracking_options(13));
+  filter.reset(scene.pose_at(0));
+  EXPECT_THROW(filter.replace_estimate(scene.pose_at(0)), std::logic_error);  // no step yet
+  Pose before;
+  for (int frame = 1; frame <= 4; ++frame) {
+    before = filter.estimate();
+    filter.step(test::make_hypothesis(test::transformed(scene.object, scene.pose_at(frame))), likelihood);
+  }
+  // The truth in place of the weighted mean: dX is the motion from the estimate before the step to it.
+  const Pose& replaced = filter.replace_estimate(scene.pose_at(4));
+  EXPECT_EQ(replaced.translation, scene.pose_at(4).translation);
+  EXPECT_EQ(filter.estimate().rotation.coeffs(), scene.pose_at(4).rotation.coeffs());
+  const PoseVector expected = pose_difference(before, scene.pose_at(4));
+  EXPECT_TRUE(filter.velocity().isApprox(expected, 1e-5f)) << filter.velocity().transpose() << " vs " << expected.transpose();
+  filter.hold();
+  EXPECT_THROW(filter.replace_estimate(scene.pose_at(4)), std::logic_error);  // a held frame has no step to refine
+}
+
 TEST(ParticleFilter, ResamplingSchemesBothTrack) {
   const MovingObject scene;
   ParticleFilterOptions o = tracking_options(9);

@@ -132,12 +132,21 @@ TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
   }
 }
 
-TEST(Config, TheIsolatedMotionKeysReachTheStep) {
+TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
   const TrackerConfig c = load_tracker_config(
       with_defaults("tracker:\n  follow_isolated: true\n  isolated_predicted_fraction: 0.9\n  isolated_refine_rounds: 4\n"));
   EXPECT_TRUE(c.step.follow_isolated);
   EXPECT_FLOAT_EQ(c.step.isolated_motion.predicted_fraction, 0.9f);
   EXPECT_EQ(c.step.isolated_motion.refine_rounds, 4);
+  const TrackerConfig icp = load_tracker_config(with_defaults(
+      "tracker:\n  isolated_icp_iterations: 7\n  icp_max_distance: 0.02\n  icp_min_paired_share: 0.4\n"
+      "  icp_max_translation: 0.03\n  icp_max_rotation: 0.2\n  icp_max_points: 300\n"));
+  EXPECT_EQ(icp.step.isolated_icp.iterations, 7);
+  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_distance, 0.02f);
+  EXPECT_FLOAT_EQ(icp.step.isolated_icp.min_paired_share, 0.4f);
+  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_translation, 0.03f);
+  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_rotation, 0.2f);
+  EXPECT_EQ(icp.step.isolated_icp.max_points, 300);
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
   // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
   EXPECT_NO_THROW(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
@@ -145,6 +154,8 @@ TEST(Config, TheIsolatedMotionKeysReachTheStep) {
       {"tracker:\n  follow_isolated: true\n  exclude_claimed_radius: 0\n", "follow_isolated"},
       {"tracker:\n  isolated_predicted_fraction: 1.5\n", "isolated_predicted_fraction"},
       {"tracker:\n  isolated_refine_rounds: 21\n", "isolated_refine_rounds"},
+      {"tracker:\n  isolated_icp_iterations: 51\n", "isolated_icp_iterations"},
+      {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
   };
   for (const auto& [yaml, key] : bad) {
     try {

@@ -118,6 +118,10 @@ class ParticleFilter {
   // their weights stay for the next step(). Departure from the thesis, whose filter always steps
   // (and then follows whatever occludes the object). Throws std::logic_error before reset().
   const Pose& hold();
+  // Puts a refined pose in place of the last step's estimate (a caller's own refinement, e.g.
+  // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion. Throws
+  // std::logic_error unless the last call was step().
+  const Pose& replace_estimate(const Pose& pose);
 
   const Pose& estimate() const { return estimate_; }
   // dX of the last step (2.13), (x, y, z, roll, pitch, yaw) per frame.
@@ -151,6 +155,8 @@ class ParticleFilter {
   std::vector<Pose> candidates_;
   std::vector<float> candidate_scores_;
   Pose estimate_;
+  Pose previous_estimate_;     // the estimate before the last step, for replace_estimate
+  bool stepped_last_ = false;  // the last call was step()
   PoseVector velocity_ = PoseVector::Zero();
 };
 

@@ -6,6 +6,7 @@
 
 #include "mfot/estimate_fit.hpp"
 #include "mfot/hypothesis.hpp"
+#include "mfot/icp_refinement.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/particle_filter.hpp"
@@ -62,6 +63,9 @@ struct TrackingStepOptions {
   // isolated); equal to the filter's options = the thesis everywhere.
   bool follow_isolated = false;
   StepMotion isolated_motion;
+  // ... and, in those frames, the filter's estimate refined on the model's surface (IcpRefinement,
+  // iterations 0 = off); its dX then comes from the refined pose.
+  IcpRefinementOptions isolated_icp;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -74,6 +78,7 @@ struct TrackingStepResult {
   std::size_t occluders_removed = 0;
   std::size_t claimed_removed = 0;      // left out as claimed by other objects
   bool isolated = false;                // stepped with isolated_motion (no other object near)
+  bool icp_refined = false;             // the estimate was refined by isolated_icp
   // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
   // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;
@@ -91,7 +96,7 @@ struct TrackingStepResult {
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
 //  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
-//     and no other object's model is near);
+//     and no other object's model is near, and then its estimate refined by isolated_icp);
 //  6. measure the confidence of the new estimate on the same points (EstimateFit).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
@@ -127,6 +132,7 @@ class TrackingStep {
   OcclusionTest occlusion_;
   HypothesisData hypothesis_;
   EstimateFit fit_;
+  IcpRefinement icp_;
   SpatialHash claimed_hash_;                // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
   SpatialHash own_;                   // the model at the last estimate, for exclude_claimed_radius

@@ -111,6 +111,12 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.follow_isolated = s.get<bool>("follow_isolated");
   c.step.isolated_motion.predicted_fraction = s.get<float>("isolated_predicted_fraction", 0.f, 1.f);
   c.step.isolated_motion.refine_rounds = s.get<int>("isolated_refine_rounds", 0, 20);
+  c.step.isolated_icp.iterations = s.get<int>("isolated_icp_iterations", 0, 50);
+  c.step.isolated_icp.max_distance = s.get<float>("icp_max_distance", 1e-4f, 0.1f);
+  c.step.isolated_icp.min_paired_share = s.get<float>("icp_min_paired_share", 0.f, 1.f);
+  c.step.isolated_icp.max_translation = s.get<float>("icp_max_translation", 0.f, 1.f);
+  c.step.isolated_icp.max_rotation = s.get<float>("icp_max_rotation", 0.f, 3.14159f);
+  c.step.isolated_icp.max_points = s.get<int>("icp_max_points", 3, 1000000);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =

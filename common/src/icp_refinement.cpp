@@ -1,0 +1,113 @@
+// Point-to-point ICP refinement of a pose estimate (steps in the header).
+
+#include "mfot/icp_refinement.hpp"
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace mfot {
+
+void IcpRefinementOptions::validate(const std::string& owner) const {
+  if (!(iterations >= 0 && iterations <= 50)) {
+    throw std::invalid_argument(owner + ".iterations must be in [0, 50], got " + std::to_string(iterations));
+  }
+  if (!(max_distance > 0.f && max_distance <= 0.1f)) {
+    throw std::invalid_argument(owner + ".max_distance must be in (0, 0.1] metres, got " + std::to_string(max_distance));
+  }
+  if (!(min_paired_share >= 0.f && min_paired_share <= 1.f)) {
+    throw std::invalid_argument(owner + ".min_paired_share must be in [0, 1], got " + std::to_string(min_paired_share));
+  }
+  if (!(max_translation >= 0.f && max_translation <= 1.f)) {
+    throw std::invalid_argument(owner + ".max_translation must be in [0, 1] metres, got " +
+                                std::to_string(max_translation));
+  }
+  if (!(max_rotation >= 0.f && max_rotation <= std::numbers::pi_v<float>)) {
+    throw std::invalid_argument(owner + ".max_rotation must be in [0, pi] radians, got " + std::to_string(max_rotation));
+  }
+  if (!(max_points >= 3 && max_points <= 1000000)) {
+    throw std::invalid_argument(owner + ".max_points must be in [3, 1000000], got " + std::to_string(max_points));
+  }
+}
+
+namespace {
+
+const IcpRefinementOptions& validated(const IcpRefinementOptions& options) {
+  options.validate();
+  return options;
+}
+
+// The rotation and translation minimising sum |R m_i + t - s_i|^2 (Arun et al. 1987), in double.
+Eigen::Isometry3f rigid_fit(std::span<const Eigen::Vector3f> model, std::span<const Eigen::Vector3f> scene) {
+  Eigen::Vector3d model_mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d scene_mean = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    model_mean += model[i].cast<double>();
+    scene_mean += scene[i].cast<double>();
+  }
+  model_mean /= static_cast<double>(model.size());
+  scene_mean /= static_cast<double>(model.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    covariance.noalias() += (model[i].cast<double>() - model_mean) * (scene[i].cast<double>() - scene_mean).transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d reflection = Eigen::Matrix3d::Identity();
+  reflection(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  const Eigen::Matrix3d rotation = svd.matrixV() * reflection * svd.matrixU().transpose();
+  Eigen::Isometry3f out = Eigen::Isometry3f::Identity();
+  out.linear() = rotation.cast<float>();
+  out.translation() = (scene_mean - rotation * model_mean).cast<float>();
+  return out;
+}
+
+}  // namespace
+
+IcpRefinement::IcpRefinement(const IcpRefinementOptions& options)
+    : options_(validated(options)), model_hash_(2.f * options.max_distance) {}
+
+IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
+                                const Pose& start) {
+  IcpResult result;
+  result.pose = start;
+  if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
+  // Models change only with a new version (growth, update): the hash is rebuilt only when the points differ.
+  if (!std::equal(model.begin(), model.end(), hashed_model_.begin(), hashed_model_.end())) {
+    hashed_model_.assign(model.begin(), model.end());
+    model_hash_.build(hashed_model_);
+  }
+  const std::size_t stride = (scene.size() + static_cast<std::size_t>(options_.max_points) - 1) /
+                             static_cast<std::size_t>(options_.max_points);
+  sample_.clear();
+  for (std::size_t i = 0; i < scene.size(); i += stride) sample_.push_back(scene[i]);
+  result.sampled = sample_.size();
+  const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample_.size())));
+  Eigen::Isometry3f pose = start.isometry();
+  for (int iteration = 0; iteration < options_.iterations; ++iteration) {
+    const Eigen::Isometry3f to_object = pose.inverse();
+    paired_model_.clear();
+    paired_scene_.clear();
+    for (const Eigen::Vector3f& p : sample_) {
+      const int nearest = model_hash_.nearest(to_object * p, options_.max_distance);
+      if (nearest < 0) continue;
+      paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
+      paired_scene_.push_back(p);
+    }
+    result.paired = paired_model_.size();
+    if (paired_model_.size() < std::max<std::size_t>(needed, 3)) return result;
+    pose = rigid_fit(paired_model_, paired_scene_);
+  }
+  const Pose refined = Pose::from_isometry(pose);
+  if ((refined.translation - start.translation).norm() > options_.max_translation ||
+      refined.rotation.angularDistance(start.rotation) > options_.max_rotation) {
+    return result;
+  }
+  result.pose = refined;
+  result.refined = true;
+  return result;
+}
+
+}  // namespace mfot
