@@ -45,11 +45,12 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     tracker->set_claimed_points(claimed_);
     const TrackingStepResult step = tracker->track(scene.cloud);
     estimates[id] = {step.estimate, step.confidence};
-    spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders left out, "
-                  "t [{:.3f} {:.3f} {:.3f}]",
+    spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders and {} claimed "
+                  "left out, {} claims near{}, t [{:.3f} {:.3f} {:.3f}]",
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
-                  step.hypothesis_points, step.occluders_removed, step.estimate.translation.x(),
-                  step.estimate.translation.y(), step.estimate.translation.z());
+                  step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
+                  step.isolated ? (step.icp_refined ? ", isolated, ICP-refined" : ", isolated") : "",
+                  step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);
 
