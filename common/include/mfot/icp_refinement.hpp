@@ -4,7 +4,7 @@
 // cross-covariance, Arun et al. 1987 / Umeyama 1991). A departure from the thesis, which takes the
 // particles' weighted mean: the JCSD score is smooth over its 15 mm kernel, so on an object turning
 // fast its mode lies several degrees from the true pose at some views whatever the particle count
-// (2000 particles on the H100 leave the same lag as 100), while the model's surface pins it within
+// (2000 particles on the H100 still leave 2-3 degrees of it), while the model's surface pins it within
 // the voxel size. TrackingStep runs it on an isolated object only: near a hand, the nearest model
 // point of a finger is the object's own face.
 
