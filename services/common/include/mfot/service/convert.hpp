@@ -54,7 +54,7 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
                                               PoseVector& velocity);
 void model_to_message(const ObjectModel& model, object_model_t& msg);
 // The claimed points of a model message (num_claimed, claimed_x/y/z: camera frame, metres); an
-// error names what is wrong (sizes, a non-finite or implausibly far point), with out cleared.
+// error names what is wrong (sizes disagreeing with num_claimed, a non-finite point), with out cleared.
 std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out);
 void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg);
 
