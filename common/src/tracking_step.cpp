@@ -37,11 +37,15 @@ void TrackingStepOptions::validate() const {
                                 std::to_string(exclude_claimed_radius));
   }
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
-  isolated_icp.validate("TrackingStepOptions.isolated_icp");
+  icp.validate("TrackingStepOptions.icp");
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
         "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
         "are what tells it is isolated");
+  }
+  if (!(hold_min_scored_share >= 0.f && hold_min_scored_share <= 1.f)) {
+    throw std::invalid_argument("TrackingStepOptions.hold_min_scored_share must be in [0, 1], got " +
+                                std::to_string(hold_min_scored_share));
   }
   if (!(max_hold_frames >= 1 && max_hold_frames <= 100000)) {
     throw std::invalid_argument("TrackingStepOptions.max_hold_frames must be in [1, 100000], got " +
@@ -53,7 +57,7 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
     : options_(validated(options)),
       occlusion_(options.occlusion),
       fit_(options.fit),
-      icp_(options.isolated_icp),
+      icp_(options.icp),
       claimed_hash_(std::max(options.exclude_claimed_radius, 1e-3f)),
       own_(std::max(options.exclude_claimed_radius, 1e-3f)) {}
 
@@ -72,20 +76,12 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   if (options_.hold_occluded_share > 0.f) {
     occlusion_.set_scene(scene.positions);
     result.occluded_share = occlusion_.occluded_share();
-    if (result.occluded_share < options_.hold_occluded_share) {
-      held_in_row_ = 0;
-    } else if (held_in_row_ >= options_.max_hold_frames) {
+    if (result.occluded_share >= options_.hold_occluded_share) {
+      if (held_in_row_ < options_.max_hold_frames) {
+        hold(filter, result);
+        return result;
+      }
       result.hold_expired = true;
-    } else {
-      ++held_in_row_;
-      hypothesis_.points.clear();
-      hypothesis_.features.clear();
-      hypothesis_.colors.clear();
-      result.estimate = filter.hold();
-      result.held = true;
-      result.confidence =
-          last_confidence_ * std::exp2(-static_cast<float>(held_in_row_) / options_.hold_confidence_half_life);
-      return result;
     }
   }
   select_hypothesis_points(scene, model_box, last, options_.hypothesis, hypothesis_);
@@ -95,18 +91,41 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   if (options_.exclude_claimed_radius > 0.f && !claimed_points_.empty()) {
     result.claimed_removed = remove_claimed(model, last);
   }
+  if (!result.hold_expired) {
+    const bool too_few = static_cast<float>(hypothesis_.points.size()) <
+                         options_.hold_min_scored_share * static_cast<float>(model.cloud.size());
+    if (!too_few) {
+      held_in_row_ = 0;
+    } else if (held_in_row_ < options_.max_hold_frames) {
+      hold(filter, result);
+      return result;
+    } else {
+      result.hold_expired = true;
+    }
+  }
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
   result.isolated = options_.follow_isolated && claimed_points_.empty();
   result.estimate = result.isolated ? filter.step(hypothesis_, likelihood, options_.isolated_motion)
                                     : filter.step(hypothesis_, likelihood);
-  if (result.isolated && options_.isolated_icp.iterations > 0) {
+  if (options_.icp.iterations > 0) {
     const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
   result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
+}
+
+void TrackingStep::hold(ParticleFilter& filter, TrackingStepResult& result) {
+  ++held_in_row_;
+  hypothesis_.points.clear();
+  hypothesis_.features.clear();
+  hypothesis_.colors.clear();
+  result.estimate = filter.hold();
+  result.held = true;
+  result.confidence =
+      last_confidence_ * std::exp2(-static_cast<float>(held_in_row_) / options_.hold_confidence_half_life);
 }
 
 std::size_t TrackingStep::remove_claimed(const ObjectModel& model, const Pose& last) {

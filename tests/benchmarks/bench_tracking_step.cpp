@@ -84,9 +84,9 @@ int main(int argc, char** argv) {
   isolated.follow_isolated = true;
   isolated.isolated_motion = mfot::StepMotion{0.75f, 2};
   mfot::TrackingStepOptions isolated_icp = isolated;
-  isolated_icp.isolated_icp.iterations = 5;
-  isolated_icp.isolated_icp.min_paired_share = 0.8f;
-  isolated_icp.isolated_icp.max_points = 200;
+  isolated_icp.icp.iterations = 5;
+  isolated_icp.icp.min_paired_share = 0.8f;
+  isolated_icp.icp.max_points = 200;
   const Row rows[] = {{"thesis motion model", thesis, {}},
                       {"refine_rounds 2", refine, {}},
                       {"anneal_iterations 2", anneal, {}},

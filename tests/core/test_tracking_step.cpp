@@ -186,27 +186,6 @@ TEST(TrackingStep, FollowsAnIsolatedObjectWithTheIsolatedMotion) {
   check(false);
   check(true);
 
-  // With the ICP refinement: the box alone is refined on the model's surface (within 3 mm and 1 degree
-  // of the truth: its points lie half the 8 mm spacing off the model's, where point-to-point pairs
-  // slide); with the hand's claims near, never. (Fingers nothing claims would be paired with the
-  // face 5 mm behind them: isolation is what keeps the refinement off a gripped object.)
-  options.isolated_icp.iterations = 5;
-  const ColoredCloud box_alone = test::transformed(test::make_test_object(0.5f), setup.truth);
-  for (const bool claimed : {false, true}) {
-    TrackingStep step(options);
-    if (claimed) step.set_claimed_points(setup.fingers);
-    ParticleFilter filter(filter_o);
-    filter.reset(setup.truth);
-    for (int frame = 0; frame < 10; ++frame) {
-      const TrackingStepResult r = step.track(claimed ? scene : box_alone, setup.model, box, filter, likelihood);
-      ASSERT_EQ(r.icp_refined, !claimed) << "frame " << frame;
-      EXPECT_EQ(r.estimate.translation, filter.estimate().translation);
-      // (Claimed: the thesis's step on the box, as in LeavesThePointsAnotherObjectClaimsOutOfTheLikelihood.)
-      EXPECT_LT(test::translation_error(r.estimate, setup.truth), claimed ? 0.005f : 0.003f) << "frame " << frame;
-      EXPECT_LT(test::degrees(test::rotation_error(r.estimate, setup.truth)), claimed ? 3.f : 1.f) << "frame " << frame;
-    }
-  }
-  options.isolated_icp.iterations = 0;
 
   // Off: the filter's own options, claims or not.
   options.follow_isolated = false;
@@ -214,6 +193,95 @@ TEST(TrackingStep, FollowsAnIsolatedObjectWithTheIsolatedMotion) {
   ParticleFilter filter(filter_o);
   filter.reset(setup.truth);
   EXPECT_FALSE(off.track(scene, setup.model, box, filter, likelihood).isolated);
+}
+
+// The ICP refinement (icp), isolated or not: the box alone, and the box gripped by fingers the
+// hand's model claims (left out before the refinement pairs anything), are refined on the model's
+// surface within 3 mm and 1 degree of the truth (the box's points lie half the 8 mm spacing off the
+// model's, where point-to-point pairs slide); dX comes from the refined pose.
+TEST(TrackingStep, RefinesTheEstimateOnTheModelSurfaceIsolatedOrGripped) {
+  const FingersOnBox setup;
+  const ColoredCloud gripped = setup.scene();
+  const ColoredCloud box_alone = test::transformed(test::make_test_object(0.5f), setup.truth);
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStepOptions options = occlusion_aware();
+  options.exclude_claimed_radius = 0.01f;
+  options.follow_isolated = true;
+  options.icp.iterations = 5;
+  for (const bool claimed : {false, true}) {
+    TrackingStep step(options);
+    if (claimed) step.set_claimed_points(setup.fingers);
+    ParticleFilter filter(filter_options());
+    filter.reset(setup.truth);
+    for (int frame = 0; frame < 10; ++frame) {
+      const TrackingStepResult r = step.track(claimed ? gripped : box_alone, setup.model, box, filter, likelihood);
+      ASSERT_TRUE(r.icp_refined) << "frame " << frame;
+      ASSERT_EQ(r.isolated, !claimed) << "frame " << frame;
+      EXPECT_EQ(r.estimate.translation, filter.estimate().translation);
+      EXPECT_LT(test::translation_error(r.estimate, setup.truth), 0.003f) << "frame " << frame;
+      EXPECT_LT(test::degrees(test::rotation_error(r.estimate, setup.truth)), 1.f) << "frame " << frame;
+    }
+  }
+}
+
+// hold_min_scored_share: a corner of the box (its points with x > 4 cm and y > 4 cm in the box frame,
+// under 10 % of the model) beside fingers its hand claims holds the filter; the whole box steps it again; past
+// max_hold_frames holds in a row the filter steps on the strip.
+TEST(TrackingStep, HoldsWhenTooLittleOfTheObjectIsLeftToScore) {
+  const FingersOnBox setup;
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  const ColoredCloud whole = setup.scene();
+  ColoredCloud strip;
+  const ColoredCloud surface = test::make_test_object(0.5f);
+  for (std::size_t k = 0; k < surface.size(); ++k) {
+    const Eigen::Vector3f& p = surface.positions[k];
+    if (p.x() > 0.04f && p.y() > 0.04f) strip.push_back(setup.truth.isometry() * p, surface.colors[k]);
+  }
+  ASSERT_GT(strip.size(), 20u);
+  ASSERT_LT(static_cast<float>(strip.size()), 0.1f * static_cast<float>(setup.model.cloud.size()));
+  for (const Eigen::Vector3f& f : setup.fingers) strip.push_back(f, kSkin);
+  TrackingStepOptions options = occlusion_aware();
+  options.exclude_claimed_radius = 0.01f;
+  options.hold_min_scored_share = 0.1f;
+  options.max_hold_frames = 3;
+
+  TrackingStep step(options);
+  step.set_claimed_points(setup.fingers);
+  ParticleFilter filter(filter_options());
+  filter.reset(setup.truth);
+  ASSERT_FALSE(step.track(whole, setup.model, box, filter, likelihood).held);
+  for (int frame = 0; frame < 3; ++frame) {
+    const Pose before = filter.estimate();
+    const TrackingStepResult r = step.track(strip, setup.model, box, filter, likelihood);
+    ASSERT_TRUE(r.held) << "frame " << frame;
+    EXPECT_FALSE(r.hold_expired);
+    EXPECT_LT(r.occluded_share, options.hold_occluded_share);  // not hidden: too little left
+    EXPECT_EQ(r.hypothesis_points, 0u);
+    EXPECT_EQ(r.estimate.translation, before.translation);
+    EXPECT_TRUE(filter.velocity().isZero());
+  }
+  const TrackingStepResult expired = step.track(strip, setup.model, box, filter, likelihood);
+  EXPECT_FALSE(expired.held);
+  EXPECT_TRUE(expired.hold_expired);
+  EXPECT_GT(expired.hypothesis_points, 0u);
+  EXPECT_LT(static_cast<float>(expired.hypothesis_points), 0.1f * static_cast<float>(setup.model.cloud.size()));
+  // The whole box again: stepped, and the count of holds starts over.
+  EXPECT_FALSE(step.track(whole, setup.model, box, filter, likelihood).held);
+  EXPECT_TRUE(step.track(strip, setup.model, box, filter, likelihood).held);
+
+  // 0: always stepped on what is left.
+  options.hold_min_scored_share = 0.f;
+  TrackingStep thesis(options);
+  thesis.set_claimed_points(setup.fingers);
+  ParticleFilter other(filter_options());
+  other.reset(setup.truth);
+  const TrackingStepResult r = thesis.track(strip, setup.model, box, other, likelihood);
+  EXPECT_FALSE(r.held);
+  EXPECT_GT(r.hypothesis_points, 0u);
 }
 
 TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
@@ -370,6 +438,11 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.hold_confidence_half_life = 0.5f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
+  o.hold_min_scored_share = -0.1f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.hold_min_scored_share = 1.1f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = TrackingStepOptions{};
   o.fit.match_distance = 0.5f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = TrackingStepOptions{};
@@ -388,7 +461,7 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.isolated_motion.predicted_fraction = 2.f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o.isolated_motion.predicted_fraction = 0.75f;
-  o.isolated_icp.max_distance = 0.f;
+  o.icp.max_distance = 0.f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
 }
 

@@ -93,17 +93,20 @@ TEST(Config, NestedSectionsAndVectors) {
 TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   const TrackerConfig c = load_tracker_config(with_defaults(
       "tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"
-      "  occluder_depth_margin: 0.02\n  own_surface_radius: 0.005\n  occlusion_window: 0.01\n"));
+      "  occluder_depth_margin: 0.02\n  own_surface_radius: 0.005\n  occlusion_window: 0.01\n"
+      "  hold_min_scored_share: 0.25\n"));
   EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.04f);
   EXPECT_TRUE(c.step.exclude_occluders);
   EXPECT_FLOAT_EQ(c.step.hold_occluded_share, 0.7f);
   EXPECT_FLOAT_EQ(c.step.occlusion.depth_margin, 0.02f);
   EXPECT_FLOAT_EQ(c.step.occlusion.own_surface_radius, 0.005f);
   EXPECT_FLOAT_EQ(c.step.occlusion.window, 0.01f);
+  EXPECT_FLOAT_EQ(c.step.hold_min_scored_share, 0.25f);
   // Absent keys: the shipped step (configs/default.yaml), not the option struct's thesis values.
   const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
   EXPECT_TRUE(shipped.step.exclude_occluders);
   EXPECT_FLOAT_EQ(shipped.step.hold_occluded_share, 0.6f);
+  EXPECT_FLOAT_EQ(shipped.step.hold_min_scored_share, 0.1f);
   try {
     load_tracker_config(with_defaults("tracker:\n  occlusion_window: 0.5\n"));
     FAIL() << "occlusion_window 0.5 was accepted";
@@ -111,6 +114,12 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
     EXPECT_NE(std::string(e.what()).find("occlusion_window"), std::string::npos) << e.what();
   }
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
+  try {
+    load_tracker_config(with_defaults("tracker:\n  hold_min_scored_share: 2\n"));
+    FAIL() << "hold_min_scored_share 2 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("hold_min_scored_share"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
@@ -139,14 +148,14 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
   EXPECT_FLOAT_EQ(c.step.isolated_motion.predicted_fraction, 0.9f);
   EXPECT_EQ(c.step.isolated_motion.refine_rounds, 4);
   const TrackerConfig icp = load_tracker_config(with_defaults(
-      "tracker:\n  isolated_icp_iterations: 7\n  icp_max_distance: 0.02\n  icp_min_paired_share: 0.4\n"
+      "tracker:\n  icp_iterations: 7\n  icp_max_distance: 0.02\n  icp_min_paired_share: 0.4\n"
       "  icp_max_translation: 0.03\n  icp_max_rotation: 0.2\n  icp_max_points: 300\n"));
-  EXPECT_EQ(icp.step.isolated_icp.iterations, 7);
-  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_distance, 0.02f);
-  EXPECT_FLOAT_EQ(icp.step.isolated_icp.min_paired_share, 0.4f);
-  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_translation, 0.03f);
-  EXPECT_FLOAT_EQ(icp.step.isolated_icp.max_rotation, 0.2f);
-  EXPECT_EQ(icp.step.isolated_icp.max_points, 300);
+  EXPECT_EQ(icp.step.icp.iterations, 7);
+  EXPECT_FLOAT_EQ(icp.step.icp.max_distance, 0.02f);
+  EXPECT_FLOAT_EQ(icp.step.icp.min_paired_share, 0.4f);
+  EXPECT_FLOAT_EQ(icp.step.icp.max_translation, 0.03f);
+  EXPECT_FLOAT_EQ(icp.step.icp.max_rotation, 0.2f);
+  EXPECT_EQ(icp.step.icp.max_points, 300);
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
   // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
   EXPECT_NO_THROW(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
@@ -154,7 +163,7 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
       {"tracker:\n  follow_isolated: true\n  exclude_claimed_radius: 0\n", "follow_isolated"},
       {"tracker:\n  isolated_predicted_fraction: 1.5\n", "isolated_predicted_fraction"},
       {"tracker:\n  isolated_refine_rounds: 21\n", "isolated_refine_rounds"},
-      {"tracker:\n  isolated_icp_iterations: 51\n", "isolated_icp_iterations"},
+      {"tracker:\n  icp_iterations: 51\n", "icp_iterations"},
       {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
   };
   for (const auto& [yaml, key] : bad) {

@@ -5,8 +5,9 @@
 // particles' weighted mean: the JCSD score is smooth over its 15 mm kernel, so on an object turning
 // fast its mode lies several degrees from the true pose at some views whatever the particle count
 // (2000 particles on the H100 still leave 2-3 degrees of it), while the model's surface pins it within
-// the voxel size. TrackingStep runs it on an isolated object only: near a hand, the nearest model
-// point of a finger is the object's own face.
+// the voxel size. TrackingStep runs it on every stepped frame, on the points left after the occluders
+// and the points other objects claim are removed (a finger gripping the object would otherwise pair
+// with the face beneath it), and holds the filter where too few are left (hold_min_scored_share).
 
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
@@ -19,7 +20,7 @@
 namespace mfot {
 
 // Member defaults: for library users and unit tests; the services fill every field from
-// configs/default.yaml (tracker.isolated_icp_iterations, tracker.icp_*).
+// configs/default.yaml (tracker.icp_*).
 struct IcpRefinementOptions {
   int iterations = 0;             // [0, 50]; 0 = off (the estimate stays)
   float max_distance = 0.01f;     // a scene point pairs with the nearest model point this close, metres (0, 0.1]

@@ -39,6 +39,12 @@ struct TrackingStepOptions {
   // where it was held): past this, the filter steps on every point in the margin, as in the
   // thesis, until the share drops below hold_occluded_share again.
   int max_hold_frames = 45;
+  // A frame in which, after the occluders and the claimed points are left out, fewer scene points
+  // remain to score than this share of the model's points holds the filter too (departure from the
+  // thesis): a hand covering a gripped box leaves a strip of its edge, on which the filter and its
+  // refinement slide off the object. Counts towards max_hold_frames; past it the filter steps on
+  // what is left. [0, 1]; 0 = always step on what is left.
+  float hold_min_scored_share = 0.f;
   // How the confidence of a stepped estimate is measured (EstimateFit).
   EstimateFitOptions fit;
   // A held frame's confidence is the last stepped frame's halved every this many holds in a row:
@@ -63,22 +69,24 @@ struct TrackingStepOptions {
   // isolated); equal to the filter's options = the thesis everywhere.
   bool follow_isolated = false;
   StepMotion isolated_motion;
-  // ... and, in those frames, the filter's estimate refined on the model's surface (IcpRefinement,
-  // iterations 0 = off); its dX then comes from the refined pose.
-  IcpRefinementOptions isolated_icp;
+  // Every stepped frame's estimate refined on the model's surface (IcpRefinement on the points left
+  // after the occluders and the claimed points are removed; iterations 0 = off, the thesis's weighted
+  // mean); its dX then comes from the refined pose. Departure from the thesis: the JCSD score is
+  // smooth over its 15 mm kernel, so its mode lies degrees from the pose at some views.
+  IcpRefinementOptions icp;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
 struct TrackingStepResult {
   Pose estimate;
-  bool held = false;                    // the object was hidden: the filter did not step
-  bool hold_expired = false;            // hidden for more than max_hold_frames: stepped on every point
+  bool held = false;                    // the object was hidden, or too little of it left to score: no step
+  bool hold_expired = false;            // held for more than max_hold_frames: stepped (on every point when hidden)
   float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
   std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
   std::size_t claimed_removed = 0;      // left out as claimed by other objects
   bool isolated = false;                // stepped with isolated_motion (no other object near)
-  bool icp_refined = false;             // the estimate was refined by isolated_icp
+  bool icp_refined = false;             // the estimate was refined on the model's surface (icp)
   // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
   // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;
@@ -93,10 +101,13 @@ struct TrackingStepResult {
 //  3b. when exclude_claimed_radius > 0: remove the points that another object's model (the points
 //     of set_claimed_points) lies within that radius of, and nearer than this model at the last
 //     estimate;
+//  3c. when hold_min_scored_share > 0 and fewer points are left than that share of the model's:
+//     the filter holds and the step ends, unless it has held max_hold_frames in a row;
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
 //  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
-//     and no other object's model is near, and then its estimate refined by isolated_icp);
+//     and no other object's model is near);
+//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
 //  6. measure the confidence of the new estimate on the same points (EstimateFit).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
@@ -125,6 +136,8 @@ class TrackingStep {
   }
 
  private:
+  // Holds the filter for this frame (steps 1 and 3c): no step, the confidence decays.
+  void hold(ParticleFilter& filter, TrackingStepResult& result);
   // Removes the hypothesis points claimed by other objects (exclude_claimed_radius); returns how many.
   std::size_t remove_claimed(const ObjectModel& model, const Pose& last);
 

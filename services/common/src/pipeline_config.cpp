@@ -100,6 +100,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.hypothesis.margin = read_hypothesis_margin(s);
   c.step.hold_occluded_share = s.get<float>("hold_occluded_share", 0.f, 1.f);
   c.step.max_hold_frames = s.get<int>("max_hold_frames", 1, 100000);
+  c.step.hold_min_scored_share = s.get<float>("hold_min_scored_share", 0.f, 1.f);
   c.step.exclude_occluders = s.get<bool>("exclude_occluders");
   c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", 0.f, 1.f);
   c.step.occlusion.window = s.get<float>("occlusion_window", 1e-4f, 0.1f);
@@ -111,12 +112,12 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.follow_isolated = s.get<bool>("follow_isolated");
   c.step.isolated_motion.predicted_fraction = s.get<float>("isolated_predicted_fraction", 0.f, 1.f);
   c.step.isolated_motion.refine_rounds = s.get<int>("isolated_refine_rounds", 0, 20);
-  c.step.isolated_icp.iterations = s.get<int>("isolated_icp_iterations", 0, 50);
-  c.step.isolated_icp.max_distance = s.get<float>("icp_max_distance", 1e-4f, 0.1f);
-  c.step.isolated_icp.min_paired_share = s.get<float>("icp_min_paired_share", 0.f, 1.f);
-  c.step.isolated_icp.max_translation = s.get<float>("icp_max_translation", 0.f, 1.f);
-  c.step.isolated_icp.max_rotation = s.get<float>("icp_max_rotation", 0.f, 3.14159f);
-  c.step.isolated_icp.max_points = s.get<int>("icp_max_points", 3, 1000000);
+  c.step.icp.iterations = s.get<int>("icp_iterations", 0, 50);
+  c.step.icp.max_distance = s.get<float>("icp_max_distance", 1e-4f, 0.1f);
+  c.step.icp.min_paired_share = s.get<float>("icp_min_paired_share", 0.f, 1.f);
+  c.step.icp.max_translation = s.get<float>("icp_max_translation", 0.f, 1.f);
+  c.step.icp.max_rotation = s.get<float>("icp_max_rotation", 0.f, 3.14159f);
+  c.step.icp.max_points = s.get<int>("icp_max_points", 3, 1000000);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
