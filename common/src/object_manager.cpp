@@ -56,6 +56,7 @@ void ObjectManagerOptions::validate() const {
   registration.validate();
   discovery.validate();
   join_split.validate();
+  carry.validate();
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -69,6 +70,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       detector_(options.new_objects),
       support_(options.support),
       occlusion_(options.occlusion),
+      carry_(options.carry),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)),
       registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {}
 
@@ -102,6 +104,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
 
   // 1. estimates
   for (auto& [id, object] : objects_) {
+    object.carried_by = 0;
+    object.held = false;
     const auto it = estimates.find(id);
     // A non-finite estimate (a diverged tracker) counts as none: the last pose is kept.
     if (it == estimates.end() || !it->second.pose.translation.allFinite() ||
@@ -109,11 +113,15 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       object.stale = true;
       continue;
     }
+    if (options_.carry.frames > 0) previous_poses_[id] = object.pose;
     object.velocity = pose_difference(object.pose, it->second.pose);
     object.pose = it->second.pose;
     object.confidence = it->second.confidence;
+    object.held = it->second.held;
     object.stale = false;
   }
+
+  if (options_.carry.frames > 0) carry_hidden();
 
   // 2. segmentation (3.22, 3.23)
   seg_objects_.clear();
@@ -142,7 +150,9 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       occlusion_scene_set_ = true;
     }
     const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
-    hidden_[k] = occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
+    // A held object's tracker saw too little of it to step (TrackingStep's holds end after max_hold_frames).
+    hidden_[k] = object.held ||
+                 occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
   for (const std::int32_t id : frame_.retired) {
@@ -427,12 +437,41 @@ bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud&
 }
 
 void ObjectManager::forget(std::int32_t id) {
+  carry_.forget(id);
+  previous_poses_.erase(id);
   objects_.erase(id);
   updaters_.erase(id);
   first_seen_.erase(id);
   birth_.erase(id);
   split_streak_.erase(id);
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
+}
+
+void ObjectManager::carry_hidden() {
+  carry_objects_.clear();
+  model_radius_.clear();
+  for (const auto& [id, object] : objects_) {
+    if (object.stale) continue;
+    carry_objects_.push_back({id, object.pose, object.held});
+    float radius = 0.f;
+    for (const Eigen::Vector3f& p : object.model.cloud.positions) radius = std::max(radius, p.norm());
+    model_radius_[id] = radius;
+  }
+  const float contact = options_.carry.contact_distance;
+  const auto touch = [&](std::int32_t a, std::int32_t b) {
+    const ManagedObject& first = objects_.at(a);
+    const ManagedObject& second = objects_.at(b);
+    // Models whose bounding spheres lie apart cannot touch: most pairs end here.
+    const float reach = model_radius_.at(a) + model_radius_.at(b) + contact;
+    if ((first.pose.translation - second.pose.translation).norm() > reach) return false;
+    return models_touch(first, second, contact);
+  };
+  for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch)) {
+    ManagedObject& object = objects_.at(carried.id);
+    object.pose = carried.pose;
+    object.velocity = pose_difference(previous_poses_.at(carried.id), carried.pose);
+    object.carried_by = carried.carrier;
+  }
 }
 
 void ObjectManager::join_rigid_parts() {

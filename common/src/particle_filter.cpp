@@ -277,6 +277,16 @@ const Pose& ParticleFilter::replace_estimate(const Pose& pose) {
   return estimate_;
 }
 
+const Pose& ParticleFilter::move_to(const Pose& pose) {
+  if (!initialised_) throw std::logic_error("ParticleFilter::move_to called before reset()");
+  const Eigen::Isometry3f move = pose.isometry() * estimate_.isometry().inverse();
+  for (Pose& particle : particles_) particle = Pose::from_isometry(move * particle.isometry());
+  velocity_ = pose_difference(estimate_, pose);
+  estimate_ = pose;
+  stepped_last_ = false;
+  return estimate_;
+}
+
 float ParticleFilter::effective_sample_size() const {
   double sum_sq = 0.0;
   for (const float w : weights_) sum_sq += static_cast<double>(w) * w;

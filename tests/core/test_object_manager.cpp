@@ -577,6 +577,54 @@ TEST(ObjectManagerJoin, StillOrSeparatelyMovingOrUnrelatedObjectsStayApart) {
   }
 }
 
+// Two touching blocks born apart (a hand gripping a box, as far as the manager can tell) move 1 cm a
+// frame together; then block 1's tracker holds it (hidden) while block 2 goes on: block 1 follows
+// block 2 (carried_by 2), its held frames without support do not retire it, and once seen again its
+// own estimate counts. With carry off it waits where it was last seen.
+TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
+  for (const bool on : {true, false}) {
+    SCOPED_TRACE(on ? "carry on" : "carry off");
+    BornTogether scene;
+    ObjectManagerOptions options;
+    options.model_update.alpha = 0.f;
+    options.carry.frames = on ? 3 : 0;
+    options.carry.min_motion = 0.02f;
+    options.hidden_occluded_share = 0.6f;
+    options.support.max_frames = 2;
+    ObjectManager manager(options, std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    ASSERT_EQ(manager.objects().size(), 2u);
+    const std::vector<std::int32_t> both{1, 2};
+    Eigen::Vector3f offset = Eigen::Vector3f::Zero();
+    for (int frame = 0; frame < 5; ++frame) {
+      offset.x() += 0.01f;
+      manager.process(shifted(scene.cloud, offset), scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
+      EXPECT_EQ(manager.objects().at(1).carried_by, 0);
+    }
+    const Pose last_seen = manager.objects().at(1).pose;
+    // Block 1 hidden: only block 2's points are in view; its tracker holds it.
+    ColoredCloud visible;
+    std::vector<std::int32_t> visible_cluster;
+    for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
+      if (scene.cloud.positions[i].x() < 0.f) continue;
+      visible.push_back(scene.cloud.positions[i], scene.cloud.colors[i]);
+      visible_cluster.push_back(0);
+    }
+    for (int frame = 0; frame < 6; ++frame) {
+      offset.x() += 0.01f;
+      std::map<std::int32_t, ObjectEstimate> estimates = moved(manager, {0.01f, 0.f, 0.f}, std::vector<std::int32_t>{2});
+      estimates.at(1).held = true;
+      const auto& result = manager.process(shifted(visible, offset), visible_cluster, estimates);
+      EXPECT_TRUE(result.retired.empty()) << "frame " << frame;
+      const ManagedObject& hidden = manager.objects().at(1);
+      EXPECT_TRUE(hidden.held);
+      EXPECT_EQ(hidden.carried_by, on ? 2 : 0);
+      const Eigen::Vector3f expected = last_seen.translation + (on ? 0.01f * static_cast<float>(frame + 1) : 0.f) * Eigen::Vector3f::UnitX();
+      EXPECT_LT((hidden.pose.translation - expected).norm(), 1e-5f) << "frame " << frame;
+    }
+  }
+}
+
 TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
   // One cluster at birth: one object over both blocks.
   ColoredCloud cloud;

@@ -326,6 +326,30 @@ TEST(ParticleFilter, AReplacedEstimateGivesTheNextPrediction) {
   EXPECT_THROW(filter.replace_estimate(scene.pose_at(4)), std::logic_error);  // a held frame has no step to refine
 }
 
+// move_to (a hidden object carried by another): every particle moved by the same rigid motion that
+// takes the estimate to the new pose, weights kept, dX = that motion.
+TEST(ParticleFilter, MovingToAPoseCarriesTheWholeParticleSetRigidly) {
+  ParticleFilter filter(tracking_options(5));
+  EXPECT_THROW(filter.move_to(Pose{}), std::logic_error);  // before reset
+  const Pose start = test::make_pose(Eigen::Vector3f(0.1f, 0.f, 1.f), Eigen::Vector3f(0.f, 1.f, 1.f).normalized(), 0.3f);
+  filter.reset(start);
+  const std::vector<Pose> before(filter.particles().begin(), filter.particles().end());
+  const std::vector<float> weights(filter.weights().begin(), filter.weights().end());
+  const Pose target = test::make_pose(Eigen::Vector3f(0.12f, 0.03f, 0.95f), Eigen::Vector3f(1.f, 0.f, 0.f), 0.9f);
+  const Pose& moved = filter.move_to(target);
+  EXPECT_EQ(moved.translation, target.translation);
+  EXPECT_EQ(filter.estimate().rotation.coeffs(), target.rotation.coeffs());
+  const Eigen::Isometry3f motion = target.isometry() * start.isometry().inverse();
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    const Pose expected = Pose::from_isometry(motion * before[i].isometry());
+    EXPECT_LT(test::translation_error(filter.particles()[i], expected), 1e-5f) << "particle " << i;
+    EXPECT_LT(test::rotation_error(filter.particles()[i], expected), 1e-4f) << "particle " << i;
+    EXPECT_EQ(filter.weights()[i], weights[i]);
+  }
+  EXPECT_TRUE(filter.velocity().isApprox(pose_difference(start, target), 1e-5f));
+  EXPECT_THROW(filter.replace_estimate(target), std::logic_error);  // no step to refine
+}
+
 TEST(ParticleFilter, ResamplingSchemesBothTrack) {
   const MovingObject scene;
   ParticleFilterOptions o = tracking_options(9);

@@ -193,6 +193,16 @@ TEST(Convert, InvalidModelsAreRejectedWithTheReason) {
   auto bad_orientation = valid;
   bad_orientation.orientation[0] = 2.0;
   EXPECT_EQ(model_from_message(bad_orientation, model, pose, velocity), "orientation is not a unit quaternion");
+  auto negative_carrier = valid;
+  negative_carrier.carried_by = -3;
+  EXPECT_EQ(model_from_message(negative_carrier, model, pose, velocity), "negative carried_by");
+  auto self_carried = valid;
+  self_carried.object_id = 4;
+  self_carried.carried_by = 4;
+  EXPECT_EQ(model_from_message(self_carried, model, pose, velocity), "an object carried by itself");
+  auto carried = self_carried;
+  carried.carried_by = 2;
+  EXPECT_FALSE(model_from_message(carried, model, pose, velocity).has_value());
 }
 
 TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {

@@ -229,6 +229,50 @@ TEST(TrackerWorker, WhatTheModelSaysOtherObjectsClaimIsLeftOutOfTheNextScene) {
   EXPECT_EQ(malformed.total(), 0);
 }
 
+// A model whose carried_by is set (the merger carried the hidden object with another) moves the
+// filter to its pose; an ordinary model leaves the filter where it is. The estimate tells whether the
+// filter held.
+TEST_F(TrackerWorkerTest, ACarriedModelMovesTheFilterAndHoldsAreReported) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  ASSERT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 1u);
+  EXPECT_FALSE(sink.estimates[0].held);
+  const Pose tracked = worker.tracker().filter().estimate();
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 1));  // the merger's pose is kStart: ignored
+  EXPECT_EQ(worker.tracker().filter().estimate().translation, tracked.translation);
+  object_model_t carried = model_for(7, 4, 444, 2);
+  Pose away = kStart;
+  away.translation += Eigen::Vector3f(0.04f, -0.01f, 0.02f);
+  pose_to_arrays(away, carried.position, carried.orientation);
+  carried.carried_by = 3;
+  deliver(&TrackerWorker::on_model, carried);
+  EXPECT_LT((worker.tracker().filter().estimate().translation - away.translation).norm(), 1e-6f);
+  // Hidden: a plate 3 cm in front of the whole object at its new pose, nothing of it in view.
+  scene_cloud_t hidden = scene_message(3);
+  hidden.x.clear(), hidden.y.clear(), hidden.z.clear(), hidden.r.clear(), hidden.g.clear(), hidden.b.clear();
+  hidden.u.clear(), hidden.v.clear(), hidden.cluster.clear();
+  for (float x = -0.15f; x <= 0.15f; x += 0.004f) {
+    for (float y = -0.15f; y <= 0.15f; y += 0.004f) {
+      hidden.x.push_back(away.translation.x() + x), hidden.y.push_back(away.translation.y() + y);
+      hidden.z.push_back(away.translation.z() - 0.09f);
+      hidden.r.push_back(220), hidden.g.push_back(170), hidden.b.push_back(140);
+      hidden.u.push_back(0), hidden.v.push_back(0), hidden.cluster.push_back(0);
+    }
+  }
+  hidden.num_points = static_cast<std::int32_t>(hidden.x.size());
+  deliver(&TrackerWorker::on_scene, hidden);
+  ASSERT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 2u);
+  EXPECT_TRUE(sink.estimates[1].held);
+  EXPECT_LT((Eigen::Vector3f(static_cast<float>(sink.estimates[1].position[0]), static_cast<float>(sink.estimates[1].position[1]),
+                             static_cast<float>(sink.estimates[1].position[2])) -
+             away.translation)
+                .norm(),
+            1e-6f);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
 TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) {
   Bytes truncated = encode(model_for(7, 4, 444, 0));
   truncated.resize(truncated.size() - 3);

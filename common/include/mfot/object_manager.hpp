@@ -3,6 +3,7 @@
 // frame, segments the scene, updates every model, creates objects from unexplained clusters and
 // retires objects that lost support.
 
+#include "mfot/carry_monitor.hpp"
 #include "mfot/individuation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_updater.hpp"
@@ -94,6 +95,8 @@ struct ObjectManagerOptions {
   // make_object_discovery and hand it to the manager (the manager itself only validates it).
   DiscoveryOptions discovery;
   JoinSplitOptions join_split;
+  // Hidden objects carried by the object they moved with (CarryMonitor; frames 0 = off, the thesis).
+  CarryOptions carry;
   void validate() const;
 };
 
@@ -101,6 +104,7 @@ struct ObjectManagerOptions {
 struct ObjectEstimate {
   Pose pose;                // object -> camera
   float confidence = 0.f;   // 0..1
+  bool held = false;        // the tracker held its filter: nothing of the object to score (hidden)
 };
 
 struct ManagedObject {
@@ -110,9 +114,13 @@ struct ManagedObject {
   PoseVector velocity = PoseVector::Zero();  // last pose change per frame: dx, dy, dz, droll, dpitch, dyaw
   float confidence = 0.f;
   bool stale = false;           // no estimate arrived for the latest frame
+  bool held = false;            // its tracker held it in the latest frame (ObjectEstimate::held)
   std::int32_t version = 0;     // incremented on every model change
   std::size_t support = 0;      // scene points segmented to it in the latest frame
   std::int64_t created_frame = 0;  // frames_processed() when it was created
+  // Hidden this frame and carried by this object (its motion moved the pose; CarryMonitor); 0 = not
+  // carried. Its tracker moves its filter to the pose.
+  std::int32_t carried_by = 0;
 };
 
 struct ObjectManagerFrame {
@@ -126,10 +134,13 @@ struct ObjectManagerFrame {
 
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
 //   1. take each object's estimate (an object without one keeps its pose and is marked stale);
+//      with carry.frames > 0, a hidden object that moved with a touching object before it was hidden
+//      follows that object's motion instead (CarryMonitor);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
-//      which an object is hidden (its model mostly occluded by nearer scene points) do not count;
+//      which an object is hidden (its model mostly occluded by nearer scene points, or its tracker
+//      held it) do not count;
 //   5. unexplained points of clusters that hold segmented points take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
 //      their models by the points they gain (thinned evenly over the whole model when it
@@ -198,6 +209,8 @@ class ObjectManager {
   void join(std::int32_t kept, std::int32_t joined);
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
   void forget(std::int32_t id);  // an object that is gone: every per-object table
+  // Step 1's carrying of hidden (held) objects.
+  void carry_hidden();
   // Registers retired's model on the points (scene indices) of a re-identified object: on success
   // object gets its pose and the remembered model with the points added, and true is returned.
   bool keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
@@ -233,6 +246,10 @@ class ObjectManager {
   std::map<std::int32_t, int> split_streak_;
   bool occlusion_scene_set_ = false;
   SpatialHash contact_hash_{0.01f};
+  CarryMonitor carry_;
+  std::vector<CarryMonitor::Object> carry_objects_;
+  std::map<std::int32_t, Pose> previous_poses_;  // step 1's poses before this frame's estimates
+  std::map<std::int32_t, float> model_radius_;
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
   ClusterSet clusters_;

@@ -122,6 +122,10 @@ class ParticleFilter {
   // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion. Throws
   // std::logic_error unless the last call was step().
   const Pose& replace_estimate(const Pose& pose);
+  // Moves the whole particle set rigidly so that the estimate becomes `pose` (a hidden object
+  // carried by another: CarryMonitor), with dX the move, so the next step predicts it onwards. The
+  // weights stay. Throws std::logic_error before reset().
+  const Pose& move_to(const Pose& pose);
 
   const Pose& estimate() const { return estimate_; }
   // dX of the last step (2.13), (x, y, z, roll, pitch, yaw) per frame.

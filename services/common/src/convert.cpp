@@ -130,6 +130,8 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
     return "array sizes disagree with num_points";
   }
   if (auto error = pose_from_arrays(msg.position, msg.orientation, pose)) return error;
+  if (msg.carried_by < 0) return "negative carried_by";
+  if (msg.carried_by != 0 && msg.carried_by == msg.object_id) return "an object carried by itself";
   for (int i = 0; i < 6; ++i) {
     if (!std::isfinite(msg.velocity[i])) return "non-finite velocity";
     velocity[i] = static_cast<float>(msg.velocity[i]);

@@ -44,12 +44,12 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     if (claimed_margin_ > 0.f) manager_.claimed_points(id, claimed_margin_, claimed_);
     tracker->set_claimed_points(claimed_);
     const TrackingStepResult step = tracker->track(scene.cloud);
-    estimates[id] = {step.estimate, step.confidence};
+    estimates[id] = {step.estimate, step.confidence, step.held};
     spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders and {} claimed "
                   "left out, {} claims near{}, t [{:.3f} {:.3f} {:.3f}]",
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
-                  step.isolated ? (step.icp_refined ? ", isolated, ICP-refined" : ", isolated") : "",
+                  std::string(step.isolated ? ", isolated" : "") + (step.icp_refined ? ", ICP-refined" : ""),
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);
@@ -63,6 +63,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     auto& tracker = trackers_[id];
     if (!tracker) tracker = std::make_unique<ObjectTracker>(tracker_options);
     tracker->set_model(id, object.version, object.model, object.pose);
+    // What a tracker worker does with a model message whose carried_by is set (TrackerWorker::on_model).
+    if (object.carried_by != 0) tracker->move_to(object.pose);
   }
   frame_.times.merge_ms = ms_since(t_merge);
   return frame_;

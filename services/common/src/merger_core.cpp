@@ -72,6 +72,7 @@ void MergerCore::on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& 
     return;
   }
   estimate.confidence = msg.confidence;
+  estimate.held = msg.held;
   // Only the owner's estimates count: a worker that has not yet heard that its object moved (or
   // a merger restart) must not overwrite the owner's.
   if (!workers_.owns(msg.worker_id, msg.object_id)) return;

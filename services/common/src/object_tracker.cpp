@@ -31,6 +31,11 @@ bool ObjectTracker::set_model(std::int32_t object_id, std::int32_t version, cons
   return new_object;
 }
 
+void ObjectTracker::move_to(const Pose& pose) {
+  if (filter_ == nullptr) throw std::logic_error("ObjectTracker::move_to without an object");
+  filter_->move_to(pose);
+}
+
 void ObjectTracker::drop() {
   filter_.reset();
   object_id_ = -1;

@@ -205,6 +205,14 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   js.split_min_share = s.get<float>("split_min_share", 0.01f, 0.5f);
   js.split_min_gap = s.get<float>("split_min_gap", 0.f, 1.f);
   js.split_max_occluded = s.get<float>("split_max_occluded", 0.f, 1.f);
+  auto carry = s.section("carry");
+  c.manager.carry.frames = carry.get<int>("frames", 0, 10000);
+  c.manager.carry.translation = carry.get<float>("translation", 1e-4f, 0.5f);
+  c.manager.carry.rotation_deg = carry.get<float>("rotation_deg", 0.1f, 90.f);
+  c.manager.carry.min_motion = carry.get<float>("min_motion", 1e-3f, 1.f);
+  c.manager.carry.min_turn_deg = carry.get<float>("min_turn_deg", 0.1f, 180.f);
+  c.manager.carry.contact_distance = carry.get<float>("contact_distance", 1e-3f, 0.1f);
+  carry.finish();
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
   const auto q = world.get_vector("rotation", 4);

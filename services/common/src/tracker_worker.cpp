@@ -57,6 +57,8 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     if (tracker_.set_model(msg.object_id, msg.version, model, pose)) {
       spdlog::info("took object {} (model v{} of frame {}, {} points)", msg.object_id, msg.version, msg.frame_seq,
                    points);
+    } else if (msg.carried_by != 0) {
+      tracker_.move_to(pose);  // hidden, carried by another object: the filter follows (merger.carry)
     }
   } catch (const std::exception& e) {
     // A model the likelihood cannot take is refused like any invalid model; the worker goes on.
@@ -117,6 +119,7 @@ void TrackerWorker::track(const Scene& scene) {
   msg.effective_sample_size = tracker_.filter().effective_sample_size();
   msg.num_particles = config_.filter.num_particles;
   msg.num_hypothesis_points = static_cast<std::int32_t>(result.hypothesis_points);
+  msg.held = result.held;
   msg.compute_ms = static_cast<float>(std::chrono::duration<double, std::milli>(clock_() - t0).count());
   sink_.publish_estimate(msg);
 }

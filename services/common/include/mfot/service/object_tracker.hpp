@@ -37,6 +37,9 @@ class ObjectTracker {
   // (e.g. a JCSD grid beyond its corner limit) throws what the likelihood throws, and nothing
   // changes.
   bool set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose);
+  // The merger carried the hidden object with another (ManagedObject::carried_by): the filter's
+  // particles move rigidly so its estimate is `pose` (ParticleFilter::move_to). Needs has_object().
+  void move_to(const Pose& pose);
   // The object went to another tracker or was retired.
   void drop();
   // The other objects' model points at their last poses (camera frame), for the step's
