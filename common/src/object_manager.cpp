@@ -150,8 +150,9 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       occlusion_scene_set_ = true;
     }
     const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
-    // A held object's tracker saw too little of it to step (TrackingStep's holds end after max_hold_frames).
-    hidden_[k] = object.held ||
+    // A carried object is hidden behind its carrier wherever the occlusion test puts it (an object that
+    // left the view is held too, but nothing carries it: it retires).
+    hidden_[k] = object.carried_by != 0 ||
                  occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);

@@ -446,6 +446,14 @@ TEST_F(MergerCoreTest, AFrameWithoutObjectsCreatesThemAndHandsThemToWorkers) {
   // Its owner got the model of frame 1.
   EXPECT_EQ(sink.models.back().frame_seq, 1);
   EXPECT_EQ(sink.models.back().worker_id, 0);
+  EXPECT_FALSE(core.manager().objects().at(1).held);
+  // A held estimate (the tracker saw nothing of it) reaches the manager as held.
+  deliver(&MergerCore::on_scene, block_scene(2, 0.01f));
+  tracker_estimate_t held = estimate_of(2, 1, 0, moved);
+  held.held = true;
+  deliver(&MergerCore::on_estimate, held);
+  EXPECT_EQ(core.step(), 1);
+  EXPECT_TRUE(core.manager().objects().at(1).held);
   EXPECT_EQ(malformed.total(), 0);
 }
 

@@ -139,8 +139,8 @@ struct ObjectManagerFrame {
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
-//      which an object is hidden (its model mostly occluded by nearer scene points, or its tracker
-//      held it) do not count;
+//      which an object is hidden (its model mostly occluded by nearer scene points, or carried
+//      while its tracker held it) do not count;
 //   5. unexplained points of clusters that hold segmented points take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
 //      their models by the points they gain (thinned evenly over the whole model when it
