@@ -2,6 +2,8 @@
 
 #include "mfot/carry_monitor.hpp"
 
+#include "mfot/option_range.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -11,10 +13,7 @@ namespace mfot {
 
 void CarryOptions::validate() const {
   const auto in = [](const char* field, double value, double low, double high, bool low_open) {
-    if (!(std::isfinite(value) && (low_open ? value > low : value >= low) && value <= high)) {
-      throw std::invalid_argument(std::string("CarryOptions.") + field + " must be in " + (low_open ? "(" : "[") +
-                                  std::to_string(low) + ", " + std::to_string(high) + "], got " + std::to_string(value));
-    }
+    require_in_range("CarryOptions", field, value, low, high, low_open);
   };
   in("frames", frames, 0, 10000, false);
   in("translation", translation, 0, 0.5, true);

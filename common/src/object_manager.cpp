@@ -1,6 +1,7 @@
 #include "mfot/object_manager.hpp"
 
 #include "mfot/hypothesis.hpp"
+#include "mfot/option_range.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
 
@@ -15,10 +16,7 @@ namespace mfot {
 
 void JoinSplitOptions::validate() const {
   const auto in = [](const char* field, double value, double low, double high, bool low_open) {
-    if (!(std::isfinite(value) && (low_open ? value > low : value >= low) && value <= high)) {
-      throw std::invalid_argument(std::string("JoinSplitOptions.") + field + " must be in " + (low_open ? "(" : "[") +
-                                  std::to_string(low) + ", " + std::to_string(high) + "], got " + std::to_string(value));
-    }
+    require_in_range("JoinSplitOptions", field, value, low, high, low_open);
   };
   in("join_frames", join_frames, 0, 10000, false);
   in("join_translation", join_translation, 0, 0.1, true);
