@@ -87,7 +87,10 @@ int main(int argc, char** argv) {
   isolated_icp.icp.iterations = 5;
   isolated_icp.icp.min_paired_share = 0.8f;
   isolated_icp.icp.max_points = 200;
+  mfot::TrackingStepOptions icp_only;  // the thesis's step refined (an object with a hand or neighbour near)
+  icp_only.icp = isolated_icp.icp;
   const Row rows[] = {{"thesis motion model", thesis, {}},
+                      {"thesis motion model, ICP 5 (others near)", thesis, icp_only},
                       {"refine_rounds 2", refine, {}},
                       {"anneal_iterations 2", anneal, {}},
                       {"isolated: predicted 0.75, refine 2", thesis, isolated},
