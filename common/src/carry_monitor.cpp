@@ -5,9 +5,7 @@
 #include "mfot/option_range.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <numbers>
-#include <stdexcept>
 
 namespace mfot {
 

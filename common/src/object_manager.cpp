@@ -111,7 +111,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       object.stale = true;
       continue;
     }
-    if (options_.carry.frames > 0) previous_poses_[id] = object.pose;
+    if (options_.carry.frames > 0 && it->second.held) previous_poses_[id] = object.pose;  // it may be carried
     object.velocity = pose_difference(object.pose, it->second.pose);
     object.pose = it->second.pose;
     object.confidence = it->second.confidence;

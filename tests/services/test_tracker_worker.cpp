@@ -78,6 +78,12 @@ TEST(ObjectTracker, BuildsAGridOnlyForANewObjectOrModelVersion) {
   EXPECT_EQ(tracker.grid_builds(), 2);
   EXPECT_EQ(tracker.model().cloud.size(), grown.cloud.size());
   EXPECT_EQ(tracker.model_version(), 2);
+  // Carried by another object: the filter moves to the merger's pose, without a new grid.
+  Pose carried = kStart;
+  carried.translation.x() += 0.05f;
+  EXPECT_FALSE(tracker.set_model(3, 2, grown, carried, true));
+  EXPECT_EQ(tracker.grid_builds(), 2);
+  EXPECT_EQ(tracker.filter().estimate().translation, carried.translation);
   tracker.drop();
   EXPECT_FALSE(tracker.has_object());
   EXPECT_TRUE(tracker.set_model(3, 2, grown, kStart));  // taken again: a new filter

@@ -248,7 +248,7 @@ class ObjectManager {
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
-  std::map<std::int32_t, Pose> previous_poses_;  // step 1's poses before this frame's estimates
+  std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;

@@ -62,9 +62,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   for (const auto& [id, object] : manager_.objects()) {
     auto& tracker = trackers_[id];
     if (!tracker) tracker = std::make_unique<ObjectTracker>(tracker_options);
-    tracker->set_model(id, object.version, object.model, object.pose);
-    // What a tracker worker does with a model message whose carried_by is set (TrackerWorker::on_model).
-    if (object.carried_by != 0) tracker->move_to(object.pose);
+    tracker->set_model(id, object.version, object.model, object.pose, object.carried_by != 0);
   }
   frame_.times.merge_ms = ms_since(t_merge);
   return frame_;

@@ -12,28 +12,25 @@ ObjectTracker::ObjectTracker(const ObjectTrackerOptions& options)
 }
 
 bool ObjectTracker::set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model,
-                              const Pose& pose) {
+                              const Pose& pose, bool carried) {
   const bool new_object = object_id != object_id_ || filter_ == nullptr;
-  if (!new_object && version == version_) return false;  // the model held: no new grid
-  likelihood_.likelihood->set_model(model);
-  ++grid_builds_;
-  if (new_object) {
-    ParticleFilterOptions filter_options = options_.filter;
-    filter_options.seed = options_.filter.seed + static_cast<std::uint64_t>(object_id);
-    filter_ = std::make_unique<ParticleFilter>(filter_options);
-    filter_->reset(pose);
-    step_.reset();
-    object_id_ = object_id;
+  if (new_object || version != version_) {  // else the model held: no new grid
+    likelihood_.likelihood->set_model(model);
+    ++grid_builds_;
+    if (new_object) {
+      ParticleFilterOptions filter_options = options_.filter;
+      filter_options.seed = options_.filter.seed + static_cast<std::uint64_t>(object_id);
+      filter_ = std::make_unique<ParticleFilter>(filter_options);
+      filter_->reset(pose);
+      step_.reset();
+      object_id_ = object_id;
+    }
+    version_ = version;
+    model_box_ = model_bounding_box(model);
+    model_ = model;
   }
-  version_ = version;
-  model_box_ = model_bounding_box(model);
-  model_ = model;
+  if (carried && !new_object) filter_->move_to(pose);
   return new_object;
-}
-
-void ObjectTracker::move_to(const Pose& pose) {
-  if (filter_ == nullptr) throw std::logic_error("ObjectTracker::move_to without an object");
-  filter_->move_to(pose);
 }
 
 void ObjectTracker::drop() {

@@ -54,11 +54,9 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
   if (!scenes_.accepts_model(msg.object_id, msg.frame_seq)) return;
   const std::size_t points = model.cloud.size();
   try {
-    if (tracker_.set_model(msg.object_id, msg.version, model, pose)) {
+    if (tracker_.set_model(msg.object_id, msg.version, model, pose, msg.carried_by != 0)) {
       spdlog::info("took object {} (model v{} of frame {}, {} points)", msg.object_id, msg.version, msg.frame_seq,
                    points);
-    } else if (msg.carried_by != 0) {
-      tracker_.move_to(pose);  // hidden, carried by another object: the filter follows (merger.carry)
     }
   } catch (const std::exception& e) {
     // A model the likelihood cannot take is refused like any invalid model; the worker goes on.

@@ -33,13 +33,13 @@ class ObjectTracker {
   ObjectTracker(const ObjectTracker&) = delete;
   ObjectTracker& operator=(const ObjectTracker&) = delete;
 
-  // Step 1. True when `object_id` is new to this tracker. A model the likelihood cannot take
-  // (e.g. a JCSD grid beyond its corner limit) throws what the likelihood throws, and nothing
-  // changes.
-  bool set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose);
-  // The merger carried the hidden object with another (ManagedObject::carried_by): the filter's
-  // particles move rigidly so its estimate is `pose` (ParticleFilter::move_to). Needs has_object().
-  void move_to(const Pose& pose);
+  // Step 1. True when `object_id` is new to this tracker. carried: the merger carried the hidden
+  // object to `pose` (ManagedObject::carried_by, object_model_t.carried_by): an object already held
+  // moves its whole particle set there (ParticleFilter::move_to); otherwise its filter keeps its own
+  // estimate. A model the likelihood cannot take (e.g. a JCSD grid beyond its corner limit) throws
+  // what the likelihood throws, and nothing changes.
+  bool set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose,
+                 bool carried = false);
   // The object went to another tracker or was retired.
   void drop();
   // The other objects' model points at their last poses (camera frame), for the step's
