@@ -55,6 +55,7 @@ void ObjectManagerOptions::validate() const {
   discovery.validate();
   join_split.validate();
   carry.validate();
+  companion.validate();
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -119,7 +120,17 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     object.stale = false;
   }
 
+  if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f) {
+    // The bounding spheres of the touch tests' prefilter.
+    model_radius_.clear();
+    for (const auto& [id, object] : objects_) {
+      float radius = 0.f;
+      for (const Eigen::Vector3f& p : object.model.cloud.positions) radius = std::max(radius, p.norm());
+      model_radius_[id] = radius;
+    }
+  }
   if (options_.carry.frames > 0) carry_hidden();
+  if (options_.companion.contact_distance > 0.f) choose_companions();
 
   // 2. segmentation (3.22, 3.23)
   seg_objects_.clear();
@@ -448,13 +459,8 @@ void ObjectManager::forget(std::int32_t id) {
 
 void ObjectManager::carry_hidden() {
   carry_objects_.clear();
-  model_radius_.clear();
   for (const auto& [id, object] : objects_) {
-    if (object.stale) continue;
-    carry_objects_.push_back({id, object.pose, object.held});
-    float radius = 0.f;
-    for (const Eigen::Vector3f& p : object.model.cloud.positions) radius = std::max(radius, p.norm());
-    model_radius_[id] = radius;
+    if (!object.stale) carry_objects_.push_back({id, object.pose, object.held});
   }
   const float contact = options_.carry.contact_distance;
   const auto touch = [&](std::int32_t a, std::int32_t b) {
@@ -470,6 +476,29 @@ void ObjectManager::carry_hidden() {
     object.pose = carried.pose;
     object.velocity = pose_difference(previous_poses_.at(carried.id), carried.pose);
     object.carried_by = carried.carrier;
+  }
+}
+
+void ObjectManager::choose_companions() {
+  const CompanionOptions& o = options_.companion;
+  for (auto& [id, object] : objects_) {
+    object.companion = 0;
+    object.companion_motion.setZero();
+    if (object.stale) continue;
+    float best_reach = 0.f;
+    for (const auto& [other_id, other] : objects_) {
+      if (other_id == id || other.stale || other.held || !companion_moved(other.velocity, o)) continue;
+      const PoseVector increment = companion_increment(object.pose, other.pose, other.velocity);
+      const float reach = increment_reach(increment, model_radius_.at(id));
+      if (reach <= best_reach) continue;
+      // Models whose bounding spheres lie apart cannot touch.
+      const float apart = model_radius_.at(id) + model_radius_.at(other_id) + o.contact_distance;
+      if ((object.pose.translation - other.pose.translation).norm() > apart) continue;
+      if (!models_touch(object, other, o.contact_distance)) continue;
+      best_reach = reach;
+      object.companion = other_id;
+      object.companion_motion = increment;
+    }
   }
 }
 

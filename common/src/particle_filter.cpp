@@ -36,6 +36,8 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
   require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
           "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
   StepMotion{o.predicted_fraction, o.refine_rounds}.validate("ParticleFilterOptions");
+  require(o.companion_fraction >= 0.f && o.companion_fraction <= 1.f,
+          "companion_fraction must be in [0, 1], got " + std::to_string(o.companion_fraction));
   require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
           "refine_translation must be in [0, 0.1] m, got " + std::to_string(o.refine_translation));
   require(std::isfinite(o.refine_rotation) && o.refine_rotation >= 0.f && o.refine_rotation <= 0.5f,
@@ -200,19 +202,29 @@ void ParticleFilter::diffuse(float scale) {
   }
 }
 
-void ParticleFilter::diffuse_and_predict(float predicted_fraction) {
+void ParticleFilter::diffuse_and_predict(float predicted_fraction, const PoseVector* companion) {
   const float sqrt_a = std::sqrt(options_.a);
   const float sqrt_b = std::sqrt(options_.b);
   const double fraction = predicted_fraction;
+  const double companion_fraction = companion != nullptr ? options_.companion_fraction : 0.0;
+  std::size_t unpredicted = 0;  // particles dX left unpredicted so far
   for (std::size_t i = 0; i < particles_.size(); ++i) {
+    // Particle i is predicted when floor((i + 1) f) > floor(i f): exactly floor(N f) of them,
+    // evenly spread (systematic resampling returns the set ordered by source particle); the same
+    // rule over the unpredicted ones picks the companion's.
+    const auto i_d = static_cast<double>(i);
+    const bool predicted = std::floor((i_d + 1.0) * fraction) > std::floor(i_d * fraction);
+    bool by_companion = false;
+    if (!predicted) {
+      const auto j_d = static_cast<double>(unpredicted++);
+      by_companion = std::floor((j_d + 1.0) * companion_fraction) > std::floor(j_d * companion_fraction);
+    }
+    const PoseVector& motion = by_companion ? *companion : velocity_;
     // N(0, a dX dX^T + b C_init) as the sum of two independent Gaussians (2.14).
-    PoseVector noise = sqrt_a * standard_normal() * velocity_;
+    PoseVector noise = sqrt_a * standard_normal() * motion;
     for (int k = 0; k < 6; ++k) noise[k] += sqrt_b * options_.init_sigma[k] * standard_normal();
     Pose p = apply_increment(particles_[i], noise);
-    // Particle i is predicted when floor((i + 1) f) > floor(i f): exactly floor(N f) of them,
-    // evenly spread (systematic resampling returns the set ordered by source particle).
-    const auto i_d = static_cast<double>(i);
-    if (std::floor((i_d + 1.0) * fraction) > std::floor(i_d * fraction)) p = apply_increment(p, velocity_);
+    if (predicted || by_companion) p = apply_increment(p, motion);
     particles_[i] = p;
   }
 }
@@ -222,11 +234,19 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
 }
 
 const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion) {
+  return step(data, likelihood, motion, nullptr);
+}
+
+const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion,
+                                 const PoseVector* companion) {
   if (!initialised_) throw std::logic_error("ParticleFilter::step called before reset()");
   motion.validate();
+  if (companion != nullptr && !companion->allFinite()) {
+    throw std::invalid_argument("ParticleFilter::step: the companion's motion must be finite");
+  }
   if (resample_pending_) {
     resample();
-    diffuse_and_predict(motion.predicted_fraction);
+    diffuse_and_predict(motion.predicted_fraction, companion);
   }
   likelihood.evaluate(particles_, data, scores_);
   likelihood_weights(scores_, options_.lambda, weights_);

@@ -106,8 +106,13 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
   result.isolated = options_.follow_isolated && claimed_points_.empty();
-  result.estimate = result.isolated ? filter.step(hypothesis_, likelihood, options_.isolated_motion)
-                                    : filter.step(hypothesis_, likelihood);
+  const PoseVector* companion = companion_motion_ ? &*companion_motion_ : nullptr;
+  const ParticleFilterOptions& filter_options = filter.options();
+  result.estimate =
+      filter.step(hypothesis_, likelihood,
+                  result.isolated ? options_.isolated_motion
+                                  : StepMotion{filter_options.predicted_fraction, filter_options.refine_rounds},
+                  companion);
   if (options_.icp.iterations > 0) {
     const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;

@@ -634,6 +634,41 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
   }
 }
 
+// Two touching blocks: when block 2's estimate moves, block 1's companion is block 2 with its step (a
+// translation: the same increment); block 2's is none (block 1 stayed). A step below min_motion, a held
+// block (its estimate is not seen) and contact_distance 0 give none.
+TEST(ObjectManagerCompanion, ATouchingObjectThatMovedIsTheCompanion) {
+  for (const float contact : {0.02f, 0.f}) {
+    SCOPED_TRACE(contact > 0.f ? "companions on" : "companions off");
+    BornTogether scene;
+    ObjectManagerOptions options;
+    options.model_update.alpha = 0.f;
+    options.companion.contact_distance = contact;
+    ObjectManager manager(options, std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    ASSERT_EQ(manager.objects().size(), 2u);
+    const std::vector<std::int32_t> second{2};
+    manager.process(scene.cloud, scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, second));
+    const ManagedObject& first = manager.objects().at(1);
+    EXPECT_EQ(first.companion, contact > 0.f ? 2 : 0);
+    const PoseVector expected = contact > 0.f ? (PoseVector() << 0.01f, 0, 0, 0, 0, 0).finished() : PoseVector::Zero();
+    EXPECT_LT((first.companion_motion - expected).norm(), 1e-5f);
+    EXPECT_EQ(manager.objects().at(2).companion, 0);
+    if (contact == 0.f) continue;
+    // A step below min_motion (2 mm by default).
+    manager.process(scene.cloud, scene.cluster, moved(manager, {0.001f, 0.f, 0.f}, second));
+    EXPECT_EQ(manager.objects().at(1).companion, 0);
+    // A held block's estimate is not seen: it is no one's companion.
+    std::map<std::int32_t, ObjectEstimate> held = moved(manager, {0.01f, 0.f, 0.f}, second);
+    held.at(2).held = true;
+    manager.process(scene.cloud, scene.cluster, held);
+    EXPECT_EQ(manager.objects().at(1).companion, 0);
+  }
+  ObjectManagerOptions invalid;
+  invalid.companion.contact_distance = 0.5f;
+  EXPECT_THROW(ObjectManager{invalid}, std::invalid_argument);
+}
+
 TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
   // One cluster at birth: one object over both blocks.
   ColoredCloud cloud;

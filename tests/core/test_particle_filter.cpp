@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -114,7 +115,10 @@ struct TrackResult {
 };
 
 // motion: each step's StepMotion in place of the options' (nullptr: step with the options').
-TrackResult track(const MovingObject& scene, const ParticleFilterOptions& options, const StepMotion* motion = nullptr) {
+// companion: each step is given the object's true last step as a companion's motion (a hand gripping
+// it whose estimate follows the motion exactly).
+TrackResult track(const MovingObject& scene, const ParticleFilterOptions& options, const StepMotion* motion = nullptr,
+                  bool companion = false) {
   JcsdLikelihood likelihood;
   likelihood.set_model(scene.model);
   ParticleFilter filter(options);
@@ -128,7 +132,11 @@ TrackResult track(const MovingObject& scene, const ParticleFilterOptions& option
     frame_points.push_back(truth.translation + Eigen::Vector3f(0.4f, 0.f, 0.f), Rgb8{255, 0, 0});  // clutter
     const std::vector<SmrFeature> features = compute_smr(frame_points.colors);
     select_hypothesis_data(frame_points, features, scene.model, filter.estimate(), HypothesisOptions{0.06f}, data);
-    const Pose estimate = motion != nullptr ? filter.step(data, likelihood, *motion) : filter.step(data, likelihood);
+    const PoseVector last_step = pose_difference(scene.pose_at(std::max(0, frame - 2)), scene.pose_at(frame - 1));
+    const StepMotion step_motion = motion != nullptr ? *motion : StepMotion{options.predicted_fraction, options.refine_rounds};
+    const Pose estimate = companion ? filter.step(data, likelihood, step_motion, &last_step)
+                          : motion != nullptr ? filter.step(data, likelihood, *motion)
+                                              : filter.step(data, likelihood);
     r.estimates.push_back(estimate);
     const float te = test::translation_error(estimate, truth);
     const float re = test::rotation_error(estimate, truth);
@@ -205,6 +213,42 @@ TEST(ParticleFilter, AStepsMotionTakesThePlaceOfTheOptions) {
   filter.reset(scene.pose_at(0));
   EXPECT_THROW(filter.step(HypothesisData{}, likelihood, StepMotion{1.5f, 0}), std::invalid_argument);
   EXPECT_THROW(filter.step(HypothesisData{}, likelihood, StepMotion{0.5f, 21}), std::invalid_argument);
+}
+
+TEST(ParticleFilter, ACompanionsMotionMovesAShareOfTheUnpredictedParticles) {
+  const MovingObject scene;
+  ParticleFilterOptions thesis = tracking_options(7);
+  thesis.num_particles = 30;  // thin: the thesis's own dX lags, most of all while the motion picks up
+  thesis.predicted_fraction = 0.5f;
+  ParticleFilterOptions with_companion = thesis;
+  with_companion.companion_fraction = 0.5f;
+  const TrackResult plain = track(scene, thesis);
+  const TrackResult followed = track(scene, with_companion, nullptr, true);
+  std::printf("30 particles: rotation mean %.2f -> %.2f deg (ramp max %.2f -> %.2f) with a companion's motion\n",
+              degrees(plain.mean_rotation_error), degrees(followed.mean_rotation_error),
+              degrees(plain.ramp_max_rotation_error), degrees(followed.ramp_max_rotation_error));
+  EXPECT_LT(followed.mean_rotation_error, 0.8f * plain.mean_rotation_error);
+  EXPECT_LT(followed.mean_translation_error, plain.mean_translation_error);
+  EXPECT_LT(degrees(followed.max_rotation_error), 15.f);  // kept (the thesis's step loses it)
+
+  // Without a companion's motion, or with companion_fraction 0, the step is the thesis's draw for draw.
+  const TrackResult unused = track(scene, with_companion);
+  const TrackResult none_moved = track(scene, thesis, nullptr, true);
+  for (std::size_t k = 0; k < plain.estimates.size(); ++k) {
+    ASSERT_EQ(unused.estimates[k].translation, plain.estimates[k].translation) << "frame " << k + 1;
+    ASSERT_EQ(none_moved.estimates[k].rotation.coeffs(), plain.estimates[k].rotation.coeffs()) << "frame " << k + 1;
+  }
+
+  JcsdLikelihood likelihood;
+  likelihood.set_model(scene.model);
+  ParticleFilter filter(with_companion);
+  filter.reset(scene.pose_at(0));
+  PoseVector broken = PoseVector::Zero();
+  broken[4] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(filter.step(HypothesisData{}, likelihood, StepMotion{}, &broken), std::invalid_argument);
+  ParticleFilterOptions invalid = thesis;
+  invalid.companion_fraction = 1.5f;
+  EXPECT_THROW(ParticleFilter{invalid}, std::invalid_argument);
 }
 
 TEST(ParticleFilter, AnnealingNarrowsAThinParticleSetOnTheObject) {

@@ -231,6 +231,30 @@ TEST(Config, CarryKeysReachTheManager) {
   }
 }
 
+TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
+  const MergerConfig m = load_merger_config(with_defaults(
+      "merger:\n  companion:\n    contact_distance: 0.015\n    min_motion: 0.004\n    min_turn_deg: 2\n"));
+  EXPECT_FLOAT_EQ(m.manager.companion.contact_distance, 0.015f);
+  EXPECT_FLOAT_EQ(m.manager.companion.min_motion, 0.004f);
+  EXPECT_FLOAT_EQ(m.manager.companion.min_turn_deg, 2.f);
+  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n")).manager.companion.contact_distance, 0.f);
+  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  companion_fraction: 0.3\n")).filter.companion_fraction, 0.3f);
+  for (const std::string key : {"contact_distance: 0.5", "min_motion: 0", "min_turn_deg: 181", "rate: 1"}) {
+    try {
+      load_merger_config(with_defaults("merger:\n  companion:\n    " + key + "\n"));
+      FAIL() << key << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key.substr(0, key.find(':'))), std::string::npos) << e.what();
+    }
+  }
+  try {
+    load_tracker_config(with_defaults("tracker:\n  companion_fraction: 1.5\n"));
+    FAIL() << "companion_fraction 1.5 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("companion_fraction"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
   EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
 }

@@ -1,4 +1,5 @@
 #include "mfot/service/convert.hpp"
+#include "mfot/service/merger_messages.hpp"
 #include "mfot/smr_feature.hpp"
 
 #include <gtest/gtest.h>
@@ -203,6 +204,46 @@ TEST(Convert, InvalidModelsAreRejectedWithTheReason) {
   auto carried = self_carried;
   carried.carried_by = 2;
   EXPECT_FALSE(model_from_message(carried, model, pose, velocity).has_value());
+
+  // The companion's motion: none, a valid one, and what is wrong with the others.
+  std::optional<PoseVector> companion = PoseVector::Zero();
+  EXPECT_FALSE(companion_from_message(valid, companion).has_value());
+  EXPECT_FALSE(companion.has_value());
+  auto with_companion = self_carried;  // object 4
+  with_companion.companion = 2;
+  for (int i = 0; i < 6; ++i) with_companion.companion_motion[i] = 0.01 * (i + 1);
+  EXPECT_FALSE(companion_from_message(with_companion, companion).has_value());
+  ASSERT_TRUE(companion.has_value());
+  EXPECT_FLOAT_EQ((*companion)[5], 0.06f);
+  auto negative_companion = with_companion;
+  negative_companion.companion = -1;
+  EXPECT_EQ(companion_from_message(negative_companion, companion), "negative companion");
+  EXPECT_FALSE(companion.has_value());
+  auto own_companion = with_companion;
+  own_companion.companion = 4;
+  EXPECT_EQ(companion_from_message(own_companion, companion), "an object that is its own companion");
+  auto nan_motion = with_companion;
+  nan_motion.companion_motion[3] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(companion_from_message(nan_motion, companion), "non-finite companion_motion");
+}
+
+// What the merger sends with a model reaches the tracker: the pose, carried_by and the companion's motion.
+TEST(Convert, AModelMessageCarriesTheCompanionsMotion) {
+  ManagedObject object;
+  object.id = 5;
+  object.model.cloud.push_back({0.01f, 0.f, 0.f}, {10, 20, 30});
+  object.pose.translation = {0.1f, -0.2f, 0.9f};
+  object.companion = 2;
+  object.companion_motion << 0.004f, -0.001f, 0.f, 0.01f, 0.02f, -0.03f;
+  const object_model_t msg = model_message(object, 1, 77, 12, {}, 1000);
+  EXPECT_EQ(msg.companion, 2);
+  std::optional<PoseVector> motion;
+  ASSERT_FALSE(companion_from_message(msg, motion).has_value());
+  ASSERT_TRUE(motion.has_value());
+  EXPECT_LT((*motion - object.companion_motion).norm(), 1e-7f);
+  object.companion = 0;
+  ASSERT_FALSE(companion_from_message(model_message(object, 1, 77, 12, {}, 1000), motion).has_value());
+  EXPECT_FALSE(motion.has_value());
 }
 
 TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {

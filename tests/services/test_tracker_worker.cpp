@@ -294,7 +294,10 @@ TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) 
   object_model_t bad_claim = model_for(7, 4, 444, 0);
   claimed_to_message(std::vector<Eigen::Vector3f>{{0.f, std::nanf(""), 1.f}}, bad_claim);
   deliver(&TrackerWorker::on_model, bad_claim);
-  EXPECT_EQ(malformed.total(), 4);
+  object_model_t own_companion = model_for(7, 4, 444, 0);
+  own_companion.companion = 7;
+  deliver(&TrackerWorker::on_model, own_companion);
+  EXPECT_EQ(malformed.total(), 5);
   EXPECT_FALSE(worker.tracker().has_object());
   deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
   deliver(&TrackerWorker::on_scene, scene_message(1));

@@ -4,6 +4,7 @@
 // retires objects that lost support.
 
 #include "mfot/carry_monitor.hpp"
+#include "mfot/companion_motion.hpp"
 #include "mfot/individuation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_updater.hpp"
@@ -97,6 +98,9 @@ struct ObjectManagerOptions {
   JoinSplitOptions join_split;
   // Hidden objects carried by the object they moved with (CarryMonitor; frames 0 = off, the thesis).
   CarryOptions carry;
+  // Each seen object's companion: the touching object whose last step its filter may follow
+  // (companion_motion.hpp; contact_distance 0 = off, the thesis).
+  CompanionOptions companion;
   void validate() const;
 };
 
@@ -121,6 +125,11 @@ struct ManagedObject {
   // Hidden this frame and carried by this object (its motion moved the pose; CarryMonitor); 0 = not
   // carried. Its tracker moves its filter to the pose.
   std::int32_t carried_by = 0;
+  // A touching object that moved in its latest step (CompanionOptions), 0 = none, and the increment
+  // (as velocity) that moving rigidly with it would give this object: its filter predicts a share of
+  // its particles by it in the next frame.
+  std::int32_t companion = 0;
+  PoseVector companion_motion = PoseVector::Zero();
 };
 
 struct ObjectManagerFrame {
@@ -135,7 +144,8 @@ struct ObjectManagerFrame {
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
 //   1. take each object's estimate (an object without one keeps its pose and is marked stale);
 //      with carry.frames > 0, a hidden object that moved with a touching object before it was hidden
-//      follows that object's motion instead (CarryMonitor);
+//      follows that object's motion instead (CarryMonitor); with companion.contact_distance > 0,
+//      each object's companion is chosen (companion_motion.hpp);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
@@ -211,6 +221,8 @@ class ObjectManager {
   void forget(std::int32_t id);  // an object that is gone: every per-object table
   // Step 1's carrying of hidden (held) objects.
   void carry_hidden();
+  // Step 1's companions.
+  void choose_companions();
   // Registers retired's model on the points (scene indices) of a re-identified object: on success
   // object gets its pose and the remembered model with the points added, and true is returned.
   bool keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,

@@ -31,6 +31,11 @@ struct ParticleFilterOptions {
   float lambda = 80.f;  // sharpness of the likelihood weights (3.21); in (0, 1000]
   ResamplingScheme resampling = ResamplingScheme::kSystematic;
   float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
+  // In a step given a companion's motion (an object touching this one moved: the hand gripping it),
+  // this share of the particles that dX leaves unpredicted is moved by that motion instead
+  // (departure from the thesis: a gripped object turns with its gripper, whose estimate has
+  // already caught up with the turn while this object's own dX still lags it). [0, 1]; 0 = the thesis.
+  float companion_fraction = 0.f;
   std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
   // Local refinement of the estimate on the same likelihood (step 6): rounds of a pattern search
   // that tries the estimate moved by +-refine_translation along each axis and turned by
@@ -82,6 +87,8 @@ Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weig
 //  2. diffuse every drawn state with N(0, C_t), C_t = a dX dX^T + b C_init (2.14), sampled as
 //     sqrt(a) dX n0 + sqrt(b) sigma_init .* n with n0 ~ N(0, 1), n ~ N(0, I6);
 //  3. predict (2.15): add dX to predicted_fraction of the particles, spread evenly over the set;
+//     given a companion's motion, add it to companion_fraction of the others (spread evenly over
+//     them; their diffusion's dX term uses the companion's motion);
 //  4. evaluate the particles with the likelihood (3.20) and weight them with 3.21;
 //  5. estimate (2.11): weighted mean translation and the weighted quaternion mean (eigenvector of
 //     the largest eigenvalue of sum w_i q_i q_i^T, sign-aligned with the previous estimate);
@@ -112,6 +119,11 @@ class ParticleFilter {
   // The same with this frame's predicted_fraction and refine_rounds in place of the options'
   // (validated: throws std::invalid_argument).
   const Pose& step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion);
+  // The same with a companion's motion: the increment (as dX, applied with apply_increment) that
+  // moving with a touching object would give this object; companion_fraction of the particles that
+  // dX leaves unpredicted are moved by it (step 3). nullptr = none.
+  const Pose& step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion,
+                   const PoseVector* companion);
   // A frame whose data cannot show the object (hidden behind nearer surfaces; the caller
   // decides, e.g. with OcclusionTest): no step, the estimate stays and dX becomes 0, since the
   // hidden motion is unknown and the last one would carry the particles off. The particles and
@@ -141,7 +153,7 @@ class ParticleFilter {
   double uniform01();
   float standard_normal();
   void resample();
-  void diffuse_and_predict(float predicted_fraction);
+  void diffuse_and_predict(float predicted_fraction, const PoseVector* companion);
   void diffuse(float scale);  // N(0, scale^2 C_init) on every particle
   void refine(const HypothesisData& data, Likelihood& likelihood, int rounds);
 

@@ -14,6 +14,7 @@
 #include "mfot/spatial_hash.hpp"
 
 #include <cstddef>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -106,7 +107,7 @@ struct TrackingStepResult {
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
 //  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
-//     and no other object's model is near);
+//     and no other object's model is near; with the companion's motion when one was set);
 //  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
 //  6. measure the confidence of the new estimate on the same points (EstimateFit).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -129,6 +130,10 @@ class TrackingStep {
   // The other tracked objects' model points at their last poses near this object (camera frame;
   // ObjectManager::claimed_points), for exclude_claimed_radius; kept until the next call.
   void set_claimed_points(std::span<const Eigen::Vector3f> points);
+  // The motion a touching object's last step would give this object (ObjectManager's companion,
+  // ManagedObject::companion_motion), for the filter's companion_fraction; nullopt = none. Kept until
+  // the next call.
+  void set_companion_motion(const std::optional<PoseVector>& motion) { companion_motion_ = motion; }
   // Forgets the holds in a row (a new object, or its filter reset).
   void reset() {
     held_in_row_ = 0;
@@ -148,6 +153,7 @@ class TrackingStep {
   IcpRefinement icp_;
   SpatialHash claimed_hash_;                // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
+  std::optional<PoseVector> companion_motion_;
   SpatialHash own_;                   // the model at the last estimate, for exclude_claimed_radius
   std::vector<Eigen::Vector3f> own_points_;
   int held_in_row_ = 0;

@@ -159,6 +159,20 @@ void model_to_message(const ObjectModel& model, object_model_t& msg) {
   write_points(model.cloud.positions, model.cloud.colors, msg);
 }
 
+std::optional<std::string> companion_from_message(const object_model_t& msg, std::optional<PoseVector>& out) {
+  out.reset();
+  if (msg.companion < 0) return "negative companion";
+  if (msg.companion == 0) return std::nullopt;
+  if (msg.companion == msg.object_id) return "an object that is its own companion";
+  PoseVector motion;
+  for (int i = 0; i < 6; ++i) {
+    if (!std::isfinite(msg.companion_motion[i])) return "non-finite companion_motion";
+    motion[i] = static_cast<float>(msg.companion_motion[i]);
+  }
+  out = motion;
+  return std::nullopt;
+}
+
 std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out) {
   out.clear();
   if (msg.num_claimed < 0) return "negative num_claimed";

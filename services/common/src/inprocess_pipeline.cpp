@@ -63,6 +63,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     auto& tracker = trackers_[id];
     if (!tracker) tracker = std::make_unique<ObjectTracker>(tracker_options);
     tracker->set_model(id, object.version, object.model, object.pose, object.carried_by != 0);
+    tracker->set_companion_motion(object.companion != 0 ? std::optional<PoseVector>(object.companion_motion) : std::nullopt);
   }
   frame_.times.merge_ms = ms_since(t_merge);
   return frame_;

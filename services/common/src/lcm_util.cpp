@@ -116,9 +116,10 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
 }
 
 // hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,
-// orientation, velocity 104 | carried_by 4 | num_points; per point x, y, z 12 + r, g, b 3.
+// orientation, velocity 104 | carried_by 4 | companion, companion_motion 52 | num_points; per point x, y, z 12 +
+// r, g, b 3.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
-  return fixed_count_fits(rbuf, object_model_t::getHash(), 152, 15);
+  return fixed_count_fits(rbuf, object_model_t::getHash(), 204, 15);
 }
 
 // hash 8 | utime 8 | worker_id 4 | instance 8 | host (int32 length incl. NUL, bytes) | object_id,

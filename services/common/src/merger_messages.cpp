@@ -16,6 +16,8 @@ object_model_t model_message(const ManagedObject& object, std::int32_t worker_id
   pose_to_arrays(object.pose, msg.position, msg.orientation);
   for (int i = 0; i < 6; ++i) msg.velocity[i] = object.velocity[i];
   msg.carried_by = object.carried_by;
+  msg.companion = object.companion;
+  for (int i = 0; i < 6; ++i) msg.companion_motion[i] = object.companion_motion[i];
   model_to_message(object.model, msg);
   claimed_to_message(claimed, msg);
   return msg;

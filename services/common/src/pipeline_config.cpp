@@ -92,6 +92,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.a = s.get<float>("diffusion_a", 0.f, 100.f);
   c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
+  c.filter.companion_fraction = s.get<float>("companion_fraction", 0.f, 1.f);
   c.filter.anneal_iterations = s.get<int>("anneal_iterations", 1, 10);
   c.filter.anneal_shrink = s.get<float>("anneal_shrink", 0.01f, 1.f);
   c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
@@ -213,6 +214,11 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.carry.min_turn_deg = carry.get<float>("min_turn_deg", 0.1f, 180.f);
   c.manager.carry.contact_distance = carry.get<float>("contact_distance", 1e-3f, 0.1f);
   carry.finish();
+  auto companion = s.section("companion");
+  c.manager.companion.contact_distance = companion.get<float>("contact_distance", 0.f, 0.1f);
+  c.manager.companion.min_motion = companion.get<float>("min_motion", 1e-4f, 1.f);
+  c.manager.companion.min_turn_deg = companion.get<float>("min_turn_deg", 0.01f, 180.f);
+  companion.finish();
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
   const auto q = world.get_vector("rotation", 4);

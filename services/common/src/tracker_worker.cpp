@@ -50,6 +50,11 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     malformed_.record(channel_name, "invalid model", *error);
     return;
   }
+  std::optional<PoseVector> companion_motion;
+  if (auto error = companion_from_message(msg, companion_motion)) {
+    malformed_.record(channel_name, "invalid model", *error);
+    return;
+  }
   // A model older than (or the same as) the one held arrived late or again: keep ours.
   if (!scenes_.accepts_model(msg.object_id, msg.frame_seq)) return;
   const std::size_t points = model.cloud.size();
@@ -65,6 +70,7 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
   }
   // What the other objects claimed as of this model's frame goes with the scenes it releases.
   tracker_.set_claimed_points(claimed_);
+  tracker_.set_companion_motion(companion_motion);
   // Scenes the merger had already finished when it sent this model are not ours to track.
   scenes_.model_received(msg.object_id, msg.frame_seq);
 }

@@ -57,5 +57,8 @@ void model_to_message(const ObjectModel& model, object_model_t& msg);
 // error names what is wrong (sizes disagreeing with num_claimed, a non-finite point), with out cleared.
 std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out);
 void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg);
+// The companion's motion of a model message (companion > 0: companion_motion; 0: nullopt); an error
+// names what is wrong (a negative companion, the object itself, a non-finite motion), out nullopt.
+std::optional<std::string> companion_from_message(const object_model_t& msg, std::optional<PoseVector>& out);
 
 }  // namespace mfot::service

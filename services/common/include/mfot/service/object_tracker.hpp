@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 
 namespace mfot::service {
 
@@ -45,6 +46,9 @@ class ObjectTracker {
   // The other objects' model points at their last poses (camera frame), for the step's
   // exclude_claimed_radius.
   void set_claimed_points(std::span<const Eigen::Vector3f> points) { step_.set_claimed_points(points); }
+  // A touching object's motion given to this object (ManagedObject::companion_motion), for the
+  // filter's companion_fraction; nullopt = none.
+  void set_companion_motion(const std::optional<PoseVector>& motion) { step_.set_companion_motion(motion); }
   // Step 2, on the object held (has_object()).
   TrackingStepResult track(const ColoredCloud& scene);
 
