@@ -106,7 +106,7 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
   EXPECT_TRUE(shipped.step.exclude_occluders);
   EXPECT_FLOAT_EQ(shipped.step.hold_occluded_share, 0.6f);
-  EXPECT_FLOAT_EQ(shipped.step.hold_min_scored_share, 0.1f);
+  EXPECT_FLOAT_EQ(shipped.step.hold_min_scored_share, 0.2f);
   try {
     load_tracker_config(with_defaults("tracker:\n  occlusion_window: 0.5\n"));
     FAIL() << "occlusion_window 0.5 was accepted";
