@@ -37,20 +37,25 @@ CarryMonitor::CarryMonitor(const CarryOptions& options) : options_(validated(opt
 void CarryMonitor::observe(const Object& object, const Object& neighbour) {
   const Eigen::Isometry3f relative = neighbour.pose.isometry().inverse() * object.pose.isometry();
   Watch& watch = watches_[{object.id, neighbour.id}];
-  const Eigen::AngleAxisf drift(Eigen::Quaternionf(watch.reference.linear().transpose() * relative.linear()));
-  const bool kept = watch.frames > 0 &&
-                    (relative.translation() - watch.reference.translation()).norm() <= options_.translation &&
-                    drift.angle() <= radians(options_.rotation_deg);
+  bool kept = false;
+  if (watch.frames > 0) {
+    const Eigen::Isometry3f& before = watch.recent.front();
+    const Eigen::AngleAxisf drift(Eigen::Quaternionf(before.linear().transpose() * relative.linear()));
+    kept = (relative.translation() - before.translation()).norm() <= options_.translation &&
+           drift.angle() <= radians(options_.rotation_deg);
+  }
   if (!kept) {
-    watch = {relative, neighbour.pose, relative, 1, false};
+    watch = Watch{{relative}, neighbour.pose, relative, 1, false};
     return;
   }
   ++watch.frames;
   watch.last_seen = relative;
+  watch.recent.push_back(relative);
+  if (watch.recent.size() > static_cast<std::size_t>(options_.frames)) watch.recent.pop_front();
   watch.neighbour_moved =
       watch.neighbour_moved ||
-      (neighbour.pose.translation - watch.neighbour_at_reference.translation).norm() >= options_.min_motion ||
-      neighbour.pose.rotation.angularDistance(watch.neighbour_at_reference.rotation) >= radians(options_.min_turn_deg);
+      (neighbour.pose.translation - watch.neighbour_at_start.translation).norm() >= options_.min_motion ||
+      neighbour.pose.rotation.angularDistance(watch.neighbour_at_start.rotation) >= radians(options_.min_turn_deg);
 }
 
 const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const Object> objects, const TouchTest& touch) {

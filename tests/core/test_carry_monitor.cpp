@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <vector>
 
@@ -48,6 +49,37 @@ TEST(CarryMonitor, AHiddenObjectFollowsTheObjectItMovedWith) {
   // Seen again: nothing carried.
   const std::vector<CarryMonitor::Object> seen{{1, scene.box_at(16), false}, {2, scene.hand_at(16), false}};
   EXPECT_TRUE(monitor.update(seen, kAlwaysTouch).empty());
+}
+
+// The two estimates of a long grip drift apart (the box's lags the hand's turn): 20 degrees over 40 frames
+// breaks no 20-frame window of 15 degrees, so the box is carried when it is hidden (a watch measured from
+// its start would have broken at frame 31 and been too short by then); 25 degrees in the last 5 frames (a
+// hand turning over a box it does not hold) breaks the watch, and nothing is carried.
+TEST(CarryMonitor, ASlowDriftOverALongGripKeepsTheWatchAFastOneBreaksIt) {
+  const Carrying scene;
+  CarryOptions options = carry_options();
+  options.frames = 20;
+  for (const bool slow : {true, false}) {
+    SCOPED_TRACE(slow ? "0.5 deg a frame" : "5 deg a frame at the end");
+    const auto box_at = [&](int frame) {
+      const float deg = slow ? 0.5f * static_cast<float>(frame) : 5.f * static_cast<float>(std::max(0, frame - 34));
+      return Pose::from_isometry(scene.hand_at(frame).isometry() * scene.relative *
+                                 Eigen::Isometry3f(Eigen::AngleAxisf(test::radians(deg), Eigen::Vector3f::UnitZ())));
+    };
+    CarryMonitor monitor(options);
+    for (int frame = 0; frame < 40; ++frame) {
+      monitor.update(std::vector<CarryMonitor::Object>{{1, box_at(frame), false}, {2, scene.hand_at(frame), false}},
+                     kAlwaysTouch);
+    }
+    const auto& carried = monitor.update(
+        std::vector<CarryMonitor::Object>{{1, box_at(39), true}, {2, scene.hand_at(40), false}}, kAlwaysTouch);
+    ASSERT_EQ(carried.size(), slow ? 1u : 0u);
+    if (!slow) continue;
+    EXPECT_LT(test::translation_error(carried[0].pose, Pose::from_isometry(scene.hand_at(40).isometry() *
+                                                                                     scene.hand_at(39).isometry().inverse() *
+                                                                                     box_at(39).isometry())),
+                        1e-4f);
+  }
 }
 
 TEST(CarryMonitor, StillApartShortOrForgottenCompanionsCarryNothing) {

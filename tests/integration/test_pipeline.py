@@ -48,15 +48,17 @@ def results(log: Path, types) -> dict[str, list[bytes]]:
 
 # Segmentation accuracy of the default scenarios in the README's accuracy table (default config, CPU); the
 # CI gates allow half a point below them.
-README_SEGMENTATION = {"stack": 0.9967, "contact": 0.9969, "rotate": 0.9981}
+README_SEGMENTATION = {"stack": 0.9967, "contact": 0.9969, "rotate": 0.9978}
 # The median rotation error of the box the hand grips and turns in `rotate` (README "Measured": 0.45 deg with the box
 # predicted with the hand's motion, 0.52 deg with every estimate refined on the model's surface and the box carried with
 # the hand while hidden, 1.4 deg with isolated objects alone refined, 11 deg on scene seed 3 before the trackers left the
 # points other objects claim out).
 README_ROTATED_BOX_MEDIAN_DEG = 0.45
-# ... and its mean, which the frames hidden behind the hand dominate (3.26 deg with the companion's motion and the hold at
-# 20 %, 3.07 deg carried with the hand, 3.61 deg when it waited where it was last seen).
-README_ROTATED_BOX_MEAN_DEG = 3.26
+# ... and its mean and largest, which the frames hidden behind the hand dominate (1.72 / 19.5 deg with the carry watch
+# over a sliding window, 3.26 / 31.5 deg with the companion's motion and the hold at 20 %, 3.07 / 30.8 deg carried with
+# the hand, 3.61 deg when it waited where it was last seen).
+README_ROTATED_BOX_MEAN_DEG = 1.72
+README_ROTATED_BOX_MAX_DEG = 19.5
 # Hands-free fast turns on the default seeds (README "Seed matrix with isolated objects followed harder"): the
 # turning box's median and largest rotation error, degrees (with tracker.follow_isolated: false, the thesis's motion
 # model, spin reads 4.58 / 18.1 and tumble 3.50 / 14.0).
@@ -128,7 +130,7 @@ class PipelineTest(unittest.TestCase):
     def test_rotate_accuracy(self):
         """The whole `rotate` scenario in process (a hand grips a box and turns it about each axis): segmentation
         within half a point of the README's figure, the turned box's median and mean rotation error within a quarter
-        degree of it, nothing lost."""
+        degree of it and its largest within two degrees, nothing lost."""
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "rotate")
             self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["rotate"] - 0.005)
@@ -137,6 +139,7 @@ class PipelineTest(unittest.TestCase):
             self.assertFalse(box["is_hand"])
             self.assertLessEqual(box["pose_error"]["rotation_median_deg"], README_ROTATED_BOX_MEDIAN_DEG + 0.25)
             self.assertLessEqual(box["pose_error"]["rotation_mean_deg"], README_ROTATED_BOX_MEAN_DEG + 0.25)
+            self.assertLessEqual(box["pose_error"]["rotation_max_deg"], README_ROTATED_BOX_MAX_DEG + 2.0)
 
     def test_fast_turns_accuracy(self):
         """`spin` (a box turning at up to 180 deg/s while it slides) and `tumble` (a box tumbling about two axes) in

@@ -9,9 +9,11 @@
 // Steps of update(), per frame:
 //   1. for every pair of objects seen this frame (not hidden, not stale) whose models touch (the
 //      caller's test), each one's pose in the other's frame: the pair's watch counts the frames in a
-//      row it stayed within translation / rotation_deg of the watch's reference and notes whether
-//      the other moved min_motion or turned min_turn_deg since that reference; beyond the tolerance,
-//      or no longer touching, the watch starts over. Watches of hidden objects wait (neither counted
+//      row it stayed within translation / rotation_deg of what it was `frames` seen frames before (a
+//      sliding window, so that a grip held for seconds, over which the two estimates drift apart by
+//      more than the tolerance, still counts) and notes whether the other moved min_motion or turned
+//      min_turn_deg since the watch began; beyond the tolerance, or no longer touching, the watch
+//      starts over. Watches of hidden objects wait (neither counted
 //      nor reset) until they are seen again;
 //   2. a hidden object is carried by the seen neighbour whose watch ran at least `frames` frames with
 //      that motion (the longest such watch; ties: the lower id);
@@ -22,6 +24,7 @@
 #include "mfot/types.hpp"
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <span>
@@ -72,8 +75,9 @@ class CarryMonitor {
 
  private:
   struct Watch {
-    Eigen::Isometry3f reference = Eigen::Isometry3f::Identity();  // object in the neighbour's frame
-    Pose neighbour_at_reference;
+    // The object's pose in the neighbour's frame over the last `frames` seen frames, oldest first.
+    std::deque<Eigen::Isometry3f> recent;
+    Pose neighbour_at_start;
     Eigen::Isometry3f last_seen = Eigen::Isometry3f::Identity();  // the latest seen relative pose
     int frames = 0;
     bool neighbour_moved = false;
