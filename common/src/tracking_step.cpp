@@ -107,6 +107,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   result.hypothesis_points = hypothesis_.points.size();
   result.isolated = options_.follow_isolated && claimed_points_.empty();
   const PoseVector* companion = companion_motion_ ? &*companion_motion_ : nullptr;
+  result.companion = companion != nullptr;
   const ParticleFilterOptions& filter_options = filter.options();
   result.estimate =
       filter.step(hypothesis_, likelihood,

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -193,6 +194,37 @@ TEST(TrackingStep, FollowsAnIsolatedObjectWithTheIsolatedMotion) {
   ParticleFilter filter(filter_o);
   filter.reset(setup.truth);
   EXPECT_FALSE(off.track(scene, setup.model, box, filter, likelihood).isolated);
+}
+
+// A companion's motion set on the step reaches the filter's step (the draws of a filter stepped by hand
+// with it on the same points), and the result says so; cleared, the step is the filter's own again.
+TEST(TrackingStep, StepsWithTheCompanionsMotionWhileOneIsSet) {
+  const FingersOnBox setup;
+  const ColoredCloud scene = setup.scene();
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  JcsdLikelihood likelihood;
+  likelihood.set_model(setup.model);
+  TrackingStepOptions options = occlusion_aware();
+  options.exclude_claimed_radius = 0.01f;
+  ParticleFilterOptions filter_o = filter_options();
+  filter_o.companion_fraction = 0.5f;
+  const PoseVector hand_step = (PoseVector() << 0.004f, 0.f, 0.f, 0.f, 0.f, 0.03f).finished();
+  TrackingStep step(options);
+  step.set_claimed_points(setup.fingers);
+  ParticleFilter filter(filter_o);
+  ParticleFilter by_hand(filter_o);
+  filter.reset(setup.truth);
+  by_hand.reset(setup.truth);
+  const StepMotion motion{filter_o.predicted_fraction, filter_o.refine_rounds};
+  for (int frame = 0; frame < 6; ++frame) {
+    const bool with_companion = frame < 3;
+    step.set_companion_motion(with_companion ? std::optional<PoseVector>(hand_step) : std::nullopt);
+    const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
+    EXPECT_EQ(r.companion, with_companion) << "frame " << frame;
+    const Pose expected = by_hand.step(step.hypothesis(), likelihood, motion, with_companion ? &hand_step : nullptr);
+    ASSERT_EQ(r.estimate.translation, expected.translation) << "frame " << frame;
+    ASSERT_EQ(r.estimate.rotation.coeffs(), expected.rotation.coeffs()) << "frame " << frame;
+  }
 }
 
 // The ICP refinement (icp), isolated or not: the box alone, and the box gripped by fingers the

@@ -88,6 +88,7 @@ struct TrackingStepResult {
   std::size_t claimed_removed = 0;      // left out as claimed by other objects
   bool isolated = false;                // stepped with isolated_motion (no other object near)
   bool icp_refined = false;             // the estimate was refined on the model's surface (icp)
+  bool companion = false;               // stepped with a companion's motion (set_companion_motion)
   // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
   // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;

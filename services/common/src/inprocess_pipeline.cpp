@@ -49,7 +49,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
                   "left out, {} claims near{}, t [{:.3f} {:.3f} {:.3f}]",
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
-                  std::string(step.isolated ? ", isolated" : "") + (step.icp_refined ? ", ICP-refined" : ""),
+                  std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
+                      (step.icp_refined ? ", ICP-refined" : ""),
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);
