@@ -122,6 +122,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
 
   if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f) {
     // The bounding spheres of the touch tests' prefilter.
+    touch_memo_.clear();
     model_radius_.clear();
     for (const auto& [id, object] : objects_) {
       float radius = 0.f;
@@ -462,15 +463,7 @@ void ObjectManager::carry_hidden() {
   for (const auto& [id, object] : objects_) {
     if (!object.stale) carry_objects_.push_back({id, object.pose, object.held});
   }
-  const float contact = options_.carry.contact_distance;
-  const auto touch = [&](std::int32_t a, std::int32_t b) {
-    const ManagedObject& first = objects_.at(a);
-    const ManagedObject& second = objects_.at(b);
-    // Models whose bounding spheres lie apart cannot touch: most pairs end here.
-    const float reach = model_radius_.at(a) + model_radius_.at(b) + contact;
-    if ((first.pose.translation - second.pose.translation).norm() > reach) return false;
-    return models_touch(first, second, contact);
-  };
+  const auto touch = [&](std::int32_t a, std::int32_t b) { return touching(a, b, options_.carry.contact_distance); };
   for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch)) {
     ManagedObject& object = objects_.at(carried.id);
     object.pose = carried.pose;
@@ -490,11 +483,7 @@ void ObjectManager::choose_companions() {
       if (other_id == id || other.stale || other.held || !companion_moved(other.velocity, o)) continue;
       const PoseVector increment = companion_increment(object.pose, other.pose, other.velocity);
       const float reach = increment_reach(increment, model_radius_.at(id));
-      if (reach <= best_reach) continue;
-      // Models whose bounding spheres lie apart cannot touch.
-      const float apart = model_radius_.at(id) + model_radius_.at(other_id) + o.contact_distance;
-      if ((object.pose.translation - other.pose.translation).norm() > apart) continue;
-      if (!models_touch(object, other, o.contact_distance)) continue;
+      if (reach <= best_reach || !touching(id, other_id, o.contact_distance)) continue;
       best_reach = reach;
       object.companion = other_id;
       object.companion_motion = increment;
@@ -531,6 +520,17 @@ void ObjectManager::join_rigid_parts() {
   for (const auto& [kept, joined] : joins) {
     if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
   }
+}
+
+bool ObjectManager::touching(std::int32_t a, std::int32_t b, float distance) {
+  const auto key = std::make_tuple(std::min(a, b), std::max(a, b), distance);
+  if (const auto it = touch_memo_.find(key); it != touch_memo_.end()) return it->second;
+  const ManagedObject& first = objects_.at(std::get<0>(key));
+  const ManagedObject& second = objects_.at(std::get<1>(key));
+  const float reach = model_radius_.at(a) + model_radius_.at(b) + distance;
+  const bool touch = (first.pose.translation - second.pose.translation).norm() <= reach && models_touch(first, second, distance);
+  touch_memo_.emplace(key, touch);
+  return touch;
 }
 
 bool ObjectManager::models_touch(const ManagedObject& a, const ManagedObject& b, float distance) {

@@ -35,7 +35,7 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "anneal_iterations must be in [1, 10], got " + std::to_string(o.anneal_iterations));
   require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
           "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
-  StepMotion{o.predicted_fraction, o.refine_rounds}.validate("ParticleFilterOptions");
+  o.step_motion().validate("ParticleFilterOptions");
   require(o.companion_fraction >= 0.f && o.companion_fraction <= 1.f,
           "companion_fraction must be in [0, 1], got " + std::to_string(o.companion_fraction));
   require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
@@ -230,7 +230,7 @@ void ParticleFilter::diffuse_and_predict(float predicted_fraction, const PoseVec
 }
 
 const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood) {
-  return step(data, likelihood, StepMotion{options_.predicted_fraction, options_.refine_rounds});
+  return step(data, likelihood, options_.step_motion());
 }
 
 const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion) {

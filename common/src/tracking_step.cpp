@@ -108,12 +108,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   result.isolated = options_.follow_isolated && claimed_points_.empty();
   const PoseVector* companion = companion_motion_ ? &*companion_motion_ : nullptr;
   result.companion = companion != nullptr;
-  const ParticleFilterOptions& filter_options = filter.options();
-  result.estimate =
-      filter.step(hypothesis_, likelihood,
-                  result.isolated ? options_.isolated_motion
-                                  : StepMotion{filter_options.predicted_fraction, filter_options.refine_rounds},
-                  companion);
+  result.estimate = filter.step(hypothesis_, likelihood,
+                                result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   if (options_.icp.iterations > 0) {
     const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;

@@ -133,7 +133,7 @@ TrackResult track(const MovingObject& scene, const ParticleFilterOptions& option
     const std::vector<SmrFeature> features = compute_smr(frame_points.colors);
     select_hypothesis_data(frame_points, features, scene.model, filter.estimate(), HypothesisOptions{0.06f}, data);
     const PoseVector last_step = pose_difference(scene.pose_at(std::max(0, frame - 2)), scene.pose_at(frame - 1));
-    const StepMotion step_motion = motion != nullptr ? *motion : StepMotion{options.predicted_fraction, options.refine_rounds};
+    const StepMotion step_motion = motion != nullptr ? *motion : options.step_motion();
     const Pose estimate = companion ? filter.step(data, likelihood, step_motion, &last_step)
                           : motion != nullptr ? filter.step(data, likelihood, *motion)
                                               : filter.step(data, likelihood);
@@ -196,7 +196,7 @@ TEST(ParticleFilter, AStepsMotionTakesThePlaceOfTheOptions) {
   ParticleFilterOptions harder = thesis;
   harder.predicted_fraction = 0.9f;
   harder.refine_rounds = 3;
-  const StepMotion follow{harder.predicted_fraction, harder.refine_rounds};
+  const StepMotion follow = harder.step_motion();
   const TrackResult by_options = track(scene, harder);
   const TrackResult by_step = track(scene, thesis, &follow);
   const TrackResult plain = track(scene, thesis);

@@ -215,7 +215,7 @@ TEST(TrackingStep, StepsWithTheCompanionsMotionWhileOneIsSet) {
   ParticleFilter by_hand(filter_o);
   filter.reset(setup.truth);
   by_hand.reset(setup.truth);
-  const StepMotion motion{filter_o.predicted_fraction, filter_o.refine_rounds};
+  const StepMotion motion = filter_o.step_motion();
   for (int frame = 0; frame < 6; ++frame) {
     const bool with_companion = frame < 3;
     step.set_companion_motion(with_companion ? std::optional<PoseVector>(hand_step) : std::nullopt);

@@ -19,6 +19,18 @@ ConfigSection section_of(const std::string& yaml, const std::string& name) {
 // A config text laid over the built-in defaults, as load_config_file does.
 YAML::Node with_defaults(const std::string& yaml) { return merged_over_defaults(YAML::Load(yaml)); }
 
+// Loading yaml over the defaults with load (load_tracker_config or load_merger_config) throws a
+// ConfigError whose message names key.
+template <typename Load>
+void expect_rejected(Load load, const std::string& yaml, const std::string& key) {
+  try {
+    (void)load(with_defaults(yaml));
+    ADD_FAILURE() << yaml << " was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+  }
+}
+
 TEST(Config, ReadsValuesAndRefusesAMissingKey) {
   auto s = section_of("tracker:\n  particles: 200\n  alpha: 0.05\n  backend: cpu\n", "tracker");
   EXPECT_EQ(s.get<int>("particles", 1, 100000), 200);
@@ -107,19 +119,9 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   EXPECT_TRUE(shipped.step.exclude_occluders);
   EXPECT_FLOAT_EQ(shipped.step.hold_occluded_share, 0.6f);
   EXPECT_FLOAT_EQ(shipped.step.hold_min_scored_share, 0.2f);
-  try {
-    load_tracker_config(with_defaults("tracker:\n  occlusion_window: 0.5\n"));
-    FAIL() << "occlusion_window 0.5 was accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("occlusion_window"), std::string::npos) << e.what();
-  }
+  expect_rejected(load_tracker_config, "tracker:\n  occlusion_window: 0.5\n", "occlusion_window");
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
-  try {
-    load_tracker_config(with_defaults("tracker:\n  hold_min_scored_share: 2\n"));
-    FAIL() << "hold_min_scored_share 2 was accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("hold_min_scored_share"), std::string::npos) << e.what();
-  }
+  expect_rejected(load_tracker_config, "tracker:\n  hold_min_scored_share: 2\n", "hold_min_scored_share");
 }
 
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
@@ -166,14 +168,7 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
       {"tracker:\n  icp_iterations: 51\n", "icp_iterations"},
       {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
   };
-  for (const auto& [yaml, key] : bad) {
-    try {
-      load_tracker_config(with_defaults(yaml));
-      FAIL() << yaml << " was accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
-    }
-  }
+  for (const auto& [yaml, key] : bad) expect_rejected(load_tracker_config, yaml, key);
 }
 
 TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
@@ -222,12 +217,7 @@ TEST(Config, CarryKeysReachTheManager) {
   EXPECT_FLOAT_EQ(m.manager.carry.contact_distance, 0.015f);
   EXPECT_EQ(load_merger_config(with_defaults("merger:\n  carry:\n    frames: 0\n")).manager.carry.frames, 0);
   for (const std::string key : {"frames: -1", "translation: 0", "rotation_deg: 100", "contact_distance: 0.5", "speed: 1"}) {
-    try {
-      load_merger_config(with_defaults("merger:\n  carry:\n    " + key + "\n"));
-      FAIL() << key << " was accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key.substr(0, key.find(':'))), std::string::npos) << e.what();
-    }
+    expect_rejected(load_merger_config, "merger:\n  carry:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
 }
 
@@ -240,19 +230,9 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n")).manager.companion.contact_distance, 0.f);
   EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  companion_fraction: 0.3\n")).filter.companion_fraction, 0.3f);
   for (const std::string key : {"contact_distance: 0.5", "min_motion: 0", "min_turn_deg: 181", "rate: 1"}) {
-    try {
-      load_merger_config(with_defaults("merger:\n  companion:\n    " + key + "\n"));
-      FAIL() << key << " was accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(key.substr(0, key.find(':'))), std::string::npos) << e.what();
-    }
+    expect_rejected(load_merger_config, "merger:\n  companion:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
-  try {
-    load_tracker_config(with_defaults("tracker:\n  companion_fraction: 1.5\n"));
-    FAIL() << "companion_fraction 1.5 was accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("companion_fraction"), std::string::npos) << e.what();
-  }
+  expect_rejected(load_tracker_config, "tracker:\n  companion_fraction: 1.5\n", "companion_fraction");
 }
 
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {

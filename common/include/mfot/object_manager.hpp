@@ -23,6 +23,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <tuple>
 #include <vector>
 
 namespace mfot {
@@ -216,6 +217,10 @@ class ObjectManager {
   // Step 7.
   void join_rigid_parts();
   bool models_touch(const ManagedObject& a, const ManagedObject& b, float distance);
+  // Step 1's touch test of carrying and companions: models_touch of two objects at this frame's poses,
+  // their bounding spheres (model_radius_) first, since most pairs end there; each pair and distance is
+  // tested once a frame (touch_memo_).
+  bool touching(std::int32_t a, std::int32_t b, float distance);
   void join(std::int32_t kept, std::int32_t joined);
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
   void forget(std::int32_t id);  // an object that is gone: every per-object table
@@ -262,6 +267,7 @@ class ObjectManager {
   std::vector<CarryMonitor::Object> carry_objects_;
   std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;
+  std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> touch_memo_;  // (lower id, higher id, distance)
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
   ClusterSet clusters_;

@@ -17,6 +17,15 @@ enum class ResamplingScheme {
   kSystematic,   // one uniform offset, N evenly spaced draws: same expectation, lower variance
 };
 
+// How hard one step follows the object's motion: the two settings of ParticleFilterOptions that a
+// caller may change from frame to frame (TrackingStep follows an isolated object harder).
+struct StepMotion {
+  float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
+  int refine_rounds = 0;            // pattern-search rounds on the estimate (step 6); [0, 20]
+  // Throws std::invalid_argument naming the field as owner.field.
+  void validate(const std::string& owner = "StepMotion") const;
+};
+
 // Defaults other than num_particles and predicted_fraction come from the synthetic tracking test
 // (tests/core/test_particle_filter.cpp): 3 mm / 1 degree diffusion keeps a 2 cm + 10 degree per
 // frame motion captured once dX is known, and a sharp lambda keeps the weighted mean precise.
@@ -50,16 +59,10 @@ struct ParticleFilterOptions {
   float anneal_shrink = 0.5f;       // (0, 1]
   float refine_translation = 0.002f;  // metres, [0, 0.1]
   float refine_rotation = 0.0175f;    // radians, [0, 0.5]
+  // The filter's own step motion (what step() without a StepMotion uses).
+  StepMotion step_motion() const { return {predicted_fraction, refine_rounds}; }
 };
 
-// How hard one step follows the object's motion: the two settings of ParticleFilterOptions that a
-// caller may change from frame to frame (TrackingStep follows an isolated object harder).
-struct StepMotion {
-  float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
-  int refine_rounds = 0;            // pattern-search rounds on the estimate (step 6); [0, 20]
-  // Throws std::invalid_argument naming the field as owner.field.
-  void validate(const std::string& owner = "StepMotion") const;
-};
 
 // Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
 // applied in the camera frame about the object's origin: R' = R_inc R with
