@@ -31,6 +31,18 @@ void DiscoveryOptions::validate() const {
   if (min_part_points < 1) {
     throw std::invalid_argument("DiscoveryOptions.min_part_points must be >= 1, got " + std::to_string(min_part_points));
   }
+  if (confirm_frames < 0 || confirm_frames > 1000) {
+    throw std::invalid_argument("DiscoveryOptions.confirm_frames must be in [0, 1000], got " +
+                                std::to_string(confirm_frames));
+  }
+  if (confirm_votes < 1 || (confirm_frames > 0 && confirm_votes > confirm_frames)) {
+    throw std::invalid_argument("DiscoveryOptions.confirm_votes must be >= 1 and at most confirm_frames (" +
+                                std::to_string(confirm_frames) + "), got " + std::to_string(confirm_votes));
+  }
+  if (!(confirm_max_motion > 0.f && confirm_max_motion <= 1.f)) {
+    throw std::invalid_argument("DiscoveryOptions.confirm_max_motion must be in (0, 1] m, got " +
+                                std::to_string(confirm_max_motion));
+  }
 }
 
 DiscoveryMethod parse_discovery_method(const std::string& name) {

@@ -212,8 +212,10 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   // 7. join parts that move as one, split objects whose parts moved apart
   frame_.joined.clear();
   frame_.split.clear();
+  frame_.regrouped.clear();
   if (options_.join_split.join_frames > 0) join_rigid_parts();
   if (options_.join_split.split_frames > 0) split_separated_parts(scene, cluster_of_point);
+  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_discovery(scene);
   std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
   ++frames_;
   return frame_;
@@ -418,6 +420,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
   first_seen_[object.id] = histogram;
   birth_[object.id] = current_birth_;
+  if (discovery_ && options_.discovery.confirm_frames > 0) unconfirmed_[object.id] = {object.pose.translation, 0};
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
 }
@@ -455,6 +458,7 @@ void ObjectManager::forget(std::int32_t id) {
   first_seen_.erase(id);
   birth_.erase(id);
   split_streak_.erase(id);
+  unconfirmed_.erase(id);
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
 
@@ -620,14 +624,7 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       return x->size() < y->size();
     });
     const std::vector<int>& own = **largest;
-    const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
-    ColoredCloud part;
-    for (const int i : own) part.push_back(camera_to_object * scene.positions[static_cast<std::size_t>(i)], scene.colors[static_cast<std::size_t>(i)]);
-    const std::vector<std::uint32_t> keep = even_subset(part, options_.max_model_points);
-    object.model.cloud.clear();
-    for (const std::uint32_t k : keep) object.model.cloud.push_back(part.positions[k], part.colors[k]);
-    object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
-    ++object.version;
+    rebuild_model(object, scene, own);
     current_birth_ = next_birth_++;
     for (const auto* points : large) {
       if (points == &own) continue;
@@ -637,6 +634,94 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
     }
   }
+}
+
+void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
+  const DiscoveryOptions& o = options_.discovery;
+  std::map<std::int32_t, std::vector<int>> points_of;  // young objects' segmented points
+  for (auto it = unconfirmed_.begin(); it != unconfirmed_.end();) {
+    const ManagedObject& object = objects_.at(it->first);
+    const std::int64_t age = frames_ - object.created_frame;
+    if (age > o.confirm_frames || (object.pose.translation - it->second.born_at).norm() > o.confirm_max_motion) {
+      it = unconfirmed_.erase(it);
+      continue;
+    }
+    if (age >= 1 && !object.stale) points_of[it->first];
+    ++it;
+  }
+  if (points_of.empty()) return;
+  for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
+    const auto it = points_of.find(frame_.labels[i]);
+    if (it != points_of.end()) it->second.push_back(static_cast<int>(i));
+  }
+  std::vector<std::vector<int>> parts;
+  for (auto& [id, points] : points_of) {
+    if (points.size() < 2 * options_.min_object_points) continue;
+    discover_parts(scene, points, parts);
+    if (parts.size() < 2) continue;
+    if (++unconfirmed_.at(id).votes < o.confirm_votes) continue;
+    unconfirmed_.at(id).votes = 0;  // its largest part may hold more than one object yet
+    // The object keeps its largest part; a part that is one convex piece with a sibling's points (the
+    // birth frame gave it to the wrong sibling) joins that sibling, the others become new siblings (if they
+    // then move as one rigid body with the object, join_rigid_parts puts them together again).
+    const auto largest = std::max_element(parts.begin(), parts.end(), [](const auto& x, const auto& y) {
+      return x.size() < y.size();
+    });
+    rebuild_model(objects_.at(id), scene, *largest);
+    points = *largest;
+    std::vector<std::vector<int>> pieces;
+    for (auto part = parts.begin(); part != parts.end(); ++part) {
+      if (part == largest) continue;
+      std::int32_t sibling = 0;
+      for (auto& [other, other_points] : points_of) {
+        if (other == id || birth_.at(other) != birth_.at(id) || other_points.empty()) continue;
+        std::vector<int> both = other_points;
+        both.insert(both.end(), part->begin(), part->end());
+        discover_parts(scene, both, pieces);
+        if (pieces.size() == 1) {
+          sibling = other;
+          other_points = std::move(both);
+          break;
+        }
+      }
+      if (sibling != 0) {
+        for (const int i : *part) frame_.labels[static_cast<std::size_t>(i)] = sibling;
+        grow_model(objects_.at(sibling), scene, *part);
+        frame_.regrouped.emplace_back(id, sibling);
+        continue;
+      }
+      for (const int i : *part) frame_.labels[static_cast<std::size_t>(i)] = 0;
+      current_birth_ = birth_.at(id);
+      const std::size_t before = frame_.created.size();
+      create_object(scene, *part);
+      if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
+    }
+  }
+}
+
+void ObjectManager::discover_parts(const ColoredCloud& scene, std::span<const int> points,
+                                   std::vector<std::vector<int>>& parts) {
+  part_positions_.clear();
+  part_colors_.clear();
+  for (const int i : points) {
+    part_positions_.push_back(scene.positions[static_cast<std::size_t>(i)]);
+    part_colors_.push_back(scene.colors[static_cast<std::size_t>(i)]);
+  }
+  const int count = discovery_->split(part_positions_, part_colors_, part_of_point_);
+  parts.assign(static_cast<std::size_t>(std::max(count, 1)), {});
+  for (std::size_t k = 0; k < points.size(); ++k) parts[static_cast<std::size_t>(part_of_point_[k])].push_back(points[k]);
+  std::erase_if(parts, [&](const std::vector<int>& part) { return part.size() < options_.min_object_points; });
+}
+
+void ObjectManager::rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points) {
+  const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
+  ColoredCloud part;
+  for (const int i : points) part.push_back(camera_to_object * scene.positions[static_cast<std::size_t>(i)], scene.colors[static_cast<std::size_t>(i)]);
+  const std::vector<std::uint32_t> keep = even_subset(part, options_.max_model_points);
+  object.model.cloud.clear();
+  for (const std::uint32_t k : keep) object.model.cloud.push_back(part.positions[k], part.colors[k]);
+  object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
+  ++object.version;
 }
 
 void ObjectManager::claimed_points(std::int32_t id, float margin, std::vector<Eigen::Vector3f>& out) const {

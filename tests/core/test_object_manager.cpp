@@ -704,6 +704,119 @@ TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
   for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(result.labels[i], apart[i] == 0 ? 1 : 2);
 }
 
+// A stand-in discovery told when to split and where: at x = at_x while splitting, else one part.
+class SplitWhenTold final : public ObjectDiscovery {
+ public:
+  bool splitting = false;
+  float at_x = 0.f;
+  int calls = 0;
+  int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8>, std::vector<int>& part) override {
+    ++calls;
+    part.assign(positions.size(), 0);
+    if (!splitting) return 1;
+    const bool first_left = !positions.empty() && positions[0].x() < at_x;
+    for (std::size_t i = 0; i < positions.size(); ++i) part[i] = (positions[i].x() < at_x) == first_left ? 0 : 1;
+    return std::set<int>(part.begin(), part.end()).size();
+  }
+};
+
+ObjectManagerOptions confirm_options() {
+  ObjectManagerOptions options;
+  options.model_update.alpha = 0.f;  // models stay as built: checked point by point
+  options.discovery.confirm_frames = 5;
+  options.discovery.confirm_votes = 2;
+  return options;
+}
+
+TEST(ObjectManagerConfirm, AYoungObjectTheDiscoverySplitsInEnoughOfItsFirstFramesIsSplit) {
+  BornTogether scene;  // one block across x = 0, one cluster
+  auto discovery = std::make_unique<SplitWhenTold>();
+  SplitWhenTold* told = discovery.get();
+  ObjectManager manager(confirm_options(), std::move(discovery));
+  manager.process(scene.cloud, scene.cluster, {});  // the birth frame's discovery finds one object
+  ASSERT_EQ(manager.objects().size(), 1u);
+  told->splitting = true;  // frame 1: one vote of the two it takes
+  EXPECT_TRUE(manager.process(scene.cloud, scene.cluster, unchanged(manager)).split.empty());
+  told->splitting = false;  // frame 2: none
+  EXPECT_TRUE(manager.process(scene.cloud, scene.cluster, unchanged(manager)).split.empty());
+  told->splitting = true;  // frame 3: the second vote splits it; of the two equal halves the first (x < 0) keeps id 1
+  const auto& result = manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  ASSERT_EQ(result.split, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
+  EXPECT_EQ(result.created, (std::vector<std::int32_t>{2}));
+  EXPECT_TRUE(result.regrouped.empty());
+  ASSERT_EQ(manager.objects().size(), 2u);
+  EXPECT_EQ(manager.objects().at(1).model.cloud.size(), 6u * 12u * 6u);  // rebuilt from its part
+  EXPECT_EQ(manager.objects().at(2).model.cloud.size(), 6u * 12u * 6u);
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i) EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
+  // Each object is looked at again only on its first confirm_frames frames: object 1 on frames 4 and 5,
+  // object 2 (born at frame 3) on 4 to 8, then neither.
+  told->splitting = false;
+  int calls = told->calls;
+  for (int frame = 4; frame <= 8; ++frame) manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  EXPECT_EQ(told->calls - calls, 7);
+  calls = told->calls;
+  manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  EXPECT_EQ(told->calls, calls);
+  EXPECT_EQ(manager.objects().size(), 2u);
+}
+
+TEST(ObjectManagerConfirm, AnObjectThatMovedFromWhereItWasBornIsNotLookedAtAgain) {
+  BornTogether scene;
+  auto discovery = std::make_unique<SplitWhenTold>();
+  SplitWhenTold* told = discovery.get();
+  ObjectManager manager(confirm_options(), std::move(discovery));  // confirm_max_motion 1 cm
+  manager.process(scene.cloud, scene.cluster, {});
+  told->splitting = true;
+  const int calls = told->calls;
+  // Moved 2 cm (a hand reaching in shows new parts of itself): never split by the discovery again.
+  const Eigen::Vector3f offset(0.02f, 0.f, 0.f);
+  const ColoredCloud moved_scene = shifted(scene.cloud, offset);
+  const std::vector<std::int32_t> ids{1};
+  for (int frame = 1; frame <= 4; ++frame) {
+    EXPECT_TRUE(manager.process(moved_scene, scene.cluster, moved(manager, frame == 1 ? offset : Eigen::Vector3f::Zero(), ids))
+                    .split.empty());
+  }
+  EXPECT_EQ(told->calls, calls);
+  EXPECT_EQ(manager.objects().size(), 1u);
+}
+
+TEST(ObjectManagerConfirm, APartThatIsOneConvexPieceWithASiblingJoinsIt) {
+  BornTogether scene;  // block columns at x = -0.0275 + 0.005 k
+  auto discovery = std::make_unique<SplitWhenTold>();
+  SplitWhenTold* told = discovery.get();
+  told->splitting = true;
+  told->at_x = 0.02f;  // the birth frame cuts too far right: object 1 takes the four columns in [0, 0.02)
+  ObjectManager manager(confirm_options(), std::move(discovery));
+  manager.process(scene.cloud, scene.cluster, {});
+  ASSERT_EQ(manager.objects().size(), 2u);
+  const std::size_t born_second = manager.objects().at(2).model.cloud.size();
+  ASSERT_EQ(born_second, 2u * 12u * 6u);
+  told->at_x = 0.f;  // later frames cut at x = 0: the strip is one piece with object 2's points
+  manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  const auto& result = manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  EXPECT_TRUE(result.split.empty());
+  EXPECT_TRUE(result.created.empty());
+  ASSERT_EQ(result.regrouped, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i) EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
+  EXPECT_EQ(manager.objects().at(1).model.cloud.size(), 6u * 12u * 6u);
+  EXPECT_EQ(manager.objects().at(2).model.cloud.size(), born_second + 4u * 12u * 6u);
+}
+
+TEST(DiscoveryOptions, RejectsConfirmVotesBeyondItsFrames) {
+  DiscoveryOptions o;
+  o.confirm_frames = 5;
+  o.confirm_votes = 6;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.confirm_votes = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.confirm_votes = 5;
+  EXPECT_NO_THROW(o.validate());
+  o.confirm_frames = 0;  // off: the votes do not matter
+  EXPECT_NO_THROW(o.validate());
+  o.confirm_frames = -1;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
 TEST(JoinSplitOptions, RejectsOutOfRangeFields) {
   JoinSplitOptions o;
   o.join_frames = -1;

@@ -235,6 +235,20 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   expect_rejected(load_tracker_config, "tracker:\n  companion_fraction: 1.5\n", "companion_fraction");
 }
 
+TEST(Config, DiscoveryConfirmKeysReachTheManager) {
+  const MergerConfig m = load_merger_config(with_defaults(
+      "merger:\n  discovery:\n    confirm_frames: 20\n    confirm_votes: 4\n    confirm_max_motion: 0.02\n"));
+  EXPECT_EQ(m.manager.discovery.confirm_frames, 20);
+  EXPECT_EQ(m.manager.discovery.confirm_votes, 4);
+  EXPECT_FLOAT_EQ(m.manager.discovery.confirm_max_motion, 0.02f);
+  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2"}) {
+    expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
+  }
+  // More votes than frames: the options' own check, named.
+  expect_rejected(load_merger_config, "merger:\n  discovery:\n    confirm_frames: 2\n    confirm_votes: 3\n",
+                  "confirm_votes");
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
   EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
 }

@@ -140,6 +140,8 @@ struct ObjectManagerFrame {
   std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
+  // (object, sibling) this frame: confirm_discovery gave a part of the object to the sibling it is one convex piece with.
+  std::vector<std::pair<std::int32_t, std::int32_t>> regrouped;
 };
 
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
@@ -165,7 +167,8 @@ struct ObjectManagerFrame {
 //      back, and with reidentify_register its remembered model is registered on the new points
 //      so that it keeps its object frame (else its model and frame are new: the pose jumps once);
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
-//      apart (JoinSplitOptions).
+//      apart (JoinSplitOptions), and split a young object in which the discovery found parts again
+//      in confirm_votes of its first confirm_frames frames (DiscoveryOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -223,6 +226,12 @@ class ObjectManager {
   bool touching(std::int32_t a, std::int32_t b, float distance);
   void join(std::int32_t kept, std::int32_t joined);
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
+  // Splits a young object again when the discovery finds parts in its points (DiscoveryOptions::confirm_frames).
+  void confirm_discovery(const ColoredCloud& scene);
+  // The discovery's parts of the points (scene indices) with at least min_object_points each.
+  void discover_parts(const ColoredCloud& scene, std::span<const int> points, std::vector<std::vector<int>>& parts);
+  // The object's model becomes the points (scene indices) in its frame, thinned evenly.
+  void rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points);
   void forget(std::int32_t id);  // an object that is gone: every per-object table
   // Step 1's carrying of hidden (held) objects.
   void carry_hidden();
@@ -261,6 +270,13 @@ class ObjectManager {
   std::map<std::int32_t, std::uint64_t> birth_;
   std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
   std::map<std::int32_t, int> split_streak_;
+  // Objects confirm_discovery still looks at: where each was born (camera frame) and the frames in which the
+  // discovery found parts in it.
+  struct Unconfirmed {
+    Eigen::Vector3f born_at = Eigen::Vector3f::Zero();
+    int votes = 0;
+  };
+  std::map<std::int32_t, Unconfirmed> unconfirmed_;
   bool occlusion_scene_set_ = false;
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;

@@ -145,7 +145,10 @@ void MergerCore::finish_frame(Clock::time_point now) {
     spdlog::info("object {} joined into object {} (they moved as one rigid body)", joined, kept);
   }
   for (const auto& [split, created] : result.split) {
-    spdlog::info("object {} split: its part that moved apart is object {}", split, created);
+    spdlog::info("object {} split: its part is object {}", split, created);
+  }
+  for (const auto& [object, sibling] : result.regrouped) {
+    spdlog::info("object {} gave a part to object {} (one convex piece with it)", object, sibling);
   }
   for (const std::int32_t id : result.retired) {
     const bool joined = std::any_of(result.joined.begin(), result.joined.end(), [id](const auto& j) { return j.second == id; });

@@ -194,6 +194,9 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.extended_convexity = discovery.get<bool>("extended_convexity");
   c.manager.discovery.sanity_criterion = discovery.get<bool>("sanity_criterion");
   c.manager.discovery.min_part_points = discovery.get<int>("min_part_points", 1, 100000);
+  c.manager.discovery.confirm_frames = discovery.get<int>("confirm_frames", 0, 1000);
+  c.manager.discovery.confirm_votes = discovery.get<int>("confirm_votes", 1, 1000);
+  c.manager.discovery.confirm_max_motion = discovery.get<float>("confirm_max_motion", 1e-4f, 1.f);
   discovery.finish();
   auto& js = c.manager.join_split;
   js.join_frames = s.get<int>("join_frames", 0, 10000);
