@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -420,7 +421,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
   first_seen_[object.id] = histogram;
   birth_[object.id] = current_birth_;
-  if (discovery_ && options_.discovery.confirm_frames > 0) unconfirmed_[object.id] = {object.pose.translation, 0};
+  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_born_at_[object.id] = object.pose.translation;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
 }
@@ -458,7 +459,7 @@ void ObjectManager::forget(std::int32_t id) {
   first_seen_.erase(id);
   birth_.erase(id);
   split_streak_.erase(id);
-  unconfirmed_.erase(id);
+  confirm_born_at_.erase(id);
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
 
@@ -638,63 +639,109 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
 
 void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
   const DiscoveryOptions& o = options_.discovery;
-  std::map<std::int32_t, std::vector<int>> points_of;  // young objects' segmented points
-  for (auto it = unconfirmed_.begin(); it != unconfirmed_.end();) {
+  // Still young objects by birth (the cluster they were found in), each with its segmented points.
+  std::map<std::uint64_t, std::map<std::int32_t, std::vector<int>>> groups;
+  std::map<std::int32_t, std::vector<int>*> points_of;
+  for (auto it = confirm_born_at_.begin(); it != confirm_born_at_.end();) {
     const ManagedObject& object = objects_.at(it->first);
     const std::int64_t age = frames_ - object.created_frame;
-    if (age > o.confirm_frames || (object.pose.translation - it->second.born_at).norm() > o.confirm_max_motion) {
-      it = unconfirmed_.erase(it);
+    if (age > o.confirm_frames || (object.pose.translation - it->second).norm() > o.confirm_max_motion) {
+      it = confirm_born_at_.erase(it);
       continue;
     }
-    if (age >= 1 && !object.stale) points_of[it->first];
+    if (age >= 1 && !object.stale) points_of[it->first] = &groups[birth_.at(it->first)][it->first];
     ++it;
   }
-  if (points_of.empty()) return;
+  std::erase_if(confirm_votes_, [&](const auto& entry) { return !groups.contains(entry.first); });
+  if (groups.empty()) return;
   for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
     const auto it = points_of.find(frame_.labels[i]);
-    if (it != points_of.end()) it->second.push_back(static_cast<int>(i));
+    if (it != points_of.end()) it->second->push_back(static_cast<int>(i));
   }
+  std::vector<int> all;
   std::vector<std::vector<int>> parts;
-  for (auto& [id, points] : points_of) {
-    if (points.size() < 2 * options_.min_object_points) continue;
-    discover_parts(scene, points, parts);
-    if (parts.size() < 2) continue;
-    if (++unconfirmed_.at(id).votes < o.confirm_votes) continue;
-    unconfirmed_.at(id).votes = 0;  // its largest part may hold more than one object yet
-    // The object keeps its largest part; a part that is one convex piece with a sibling's points (the
-    // birth frame gave it to the wrong sibling) joins that sibling, the others become new siblings (if they
-    // then move as one rigid body with the object, join_rigid_parts puts them together again).
-    const auto largest = std::max_element(parts.begin(), parts.end(), [](const auto& x, const auto& y) {
-      return x.size() < y.size();
+  for (const auto& [birth, members] : groups) {
+    all.clear();
+    for (const auto& [id, points] : members) all.insert(all.end(), points.begin(), points.end());
+    if (all.size() < 2 * options_.min_object_points) continue;
+    discover_parts(scene, all, parts);
+    // Each member takes the part it overlaps most, largest overlaps first, one part per member and member per
+    // part; parts left over hold an object no member is.
+    std::vector<std::tuple<std::size_t, std::int32_t, std::size_t>> overlaps;  // (points, member, part)
+    std::vector<std::map<std::int32_t, std::size_t>> held(parts.size());
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      for (const int i : parts[p]) ++held[p][frame_.labels[static_cast<std::size_t>(i)]];
+      for (const auto& [id, count] : held[p]) overlaps.emplace_back(count, id, p);
+    }
+    std::sort(overlaps.begin(), overlaps.end(), [](const auto& x, const auto& y) {
+      return std::get<0>(x) != std::get<0>(y) ? std::get<0>(x) > std::get<0>(y) : std::get<1>(x) < std::get<1>(y);
     });
-    rebuild_model(objects_.at(id), scene, *largest);
-    points = *largest;
-    std::vector<std::vector<int>> pieces;
-    for (auto part = parts.begin(); part != parts.end(); ++part) {
-      if (part == largest) continue;
-      std::int32_t sibling = 0;
-      for (auto& [other, other_points] : points_of) {
-        if (other == id || birth_.at(other) != birth_.at(id) || other_points.empty()) continue;
-        std::vector<int> both = other_points;
-        both.insert(both.end(), part->begin(), part->end());
-        discover_parts(scene, both, pieces);
-        if (pieces.size() == 1) {
-          sibling = other;
-          other_points = std::move(both);
-          break;
+    std::map<std::int32_t, std::size_t> part_of_member;
+    std::vector<std::int32_t> member_of_part(parts.size(), 0);
+    for (const auto& [count, id, p] : overlaps) {
+      if (member_of_part[p] == 0 && !part_of_member.contains(id)) {
+        member_of_part[p] = id;
+        part_of_member[id] = p;
+      }
+    }
+    // The discovery disagrees with the objects: a part no member holds (two objects found as one), or a piece of
+    // min_part_points of one member inside the part of another (the birth frame's boundary was wrong).
+    bool disagrees = std::count(member_of_part.begin(), member_of_part.end(), 0) > 0;
+    for (std::size_t p = 0; p < parts.size() && !disagrees; ++p) {
+      for (const auto& [id, count] : held[p]) {
+        if (id != member_of_part[p] && part_of_member.contains(id) && count >= static_cast<std::size_t>(o.min_part_points)) {
+          disagrees = true;
         }
       }
-      if (sibling != 0) {
-        for (const int i : *part) frame_.labels[static_cast<std::size_t>(i)] = sibling;
-        grow_model(objects_.at(sibling), scene, *part);
-        frame_.regrouped.emplace_back(id, sibling);
-        continue;
+    }
+    if (!disagrees || ++confirm_votes_[birth] < o.confirm_votes) continue;
+    confirm_votes_[birth] = 0;
+    // This frame's parts become the objects: a member keeps its part (its model rebuilt from it, points of other
+    // members in it join it), a part no member holds is a new sibling (if it then moves as one rigid body with the
+    // others, join_rigid_parts puts them together again). A member that holds no part keeps its points.
+    std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> moved;  // (from, to): points
+    std::set<std::int32_t> changed;
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      const std::int32_t to = member_of_part[p];
+      if (to == 0) continue;
+      for (const int i : parts[p]) {
+        std::int32_t& label = frame_.labels[static_cast<std::size_t>(i)];
+        if (label != to && part_of_member.contains(label)) {
+          ++moved[{label, to}];
+          changed.insert(label);
+          changed.insert(to);
+          label = to;
+        }
       }
-      for (const int i : *part) frame_.labels[static_cast<std::size_t>(i)] = 0;
-      current_birth_ = birth_.at(id);
+    }
+    for (const auto& [pair, count] : moved) frame_.regrouped.push_back(pair);
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      if (member_of_part[p] != 0) continue;
+      std::vector<int> points;
+      std::map<std::int32_t, std::size_t> from;
+      for (const int i : parts[p]) {
+        const std::int32_t label = frame_.labels[static_cast<std::size_t>(i)];
+        if (!part_of_member.contains(label)) continue;
+        points.push_back(i);
+        ++from[label];
+      }
+      if (points.size() < options_.min_object_points) continue;
+      const std::int32_t split = std::max_element(from.begin(), from.end(), [](const auto& x, const auto& y) {
+        return x.second < y.second;
+      })->first;
+      for (const auto& [id, count] : from) changed.insert(id);
+      for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = 0;
+      current_birth_ = birth;
       const std::size_t before = frame_.created.size();
-      create_object(scene, *part);
-      if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
+      create_object(scene, points);
+      if (frame_.created.size() > before) frame_.split.emplace_back(split, frame_.created.back());
+    }
+    for (const std::int32_t id : changed) {
+      std::vector<int> own;
+      for (const int i : all) {
+        if (frame_.labels[static_cast<std::size_t>(i)] == id) own.push_back(i);
+      }
+      rebuild_model(objects_.at(id), scene, own);
     }
   }
 }

@@ -226,7 +226,8 @@ class ObjectManager {
   bool touching(std::int32_t a, std::int32_t b, float distance);
   void join(std::int32_t kept, std::int32_t joined);
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
-  // Splits a young object again when the discovery finds parts in its points (DiscoveryOptions::confirm_frames).
+  // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
+  // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
   void confirm_discovery(const ColoredCloud& scene);
   // The discovery's parts of the points (scene indices) with at least min_object_points each.
   void discover_parts(const ColoredCloud& scene, std::span<const int> points, std::vector<std::vector<int>>& parts);
@@ -270,13 +271,10 @@ class ObjectManager {
   std::map<std::int32_t, std::uint64_t> birth_;
   std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
   std::map<std::int32_t, int> split_streak_;
-  // Objects confirm_discovery still looks at: where each was born (camera frame) and the frames in which the
-  // discovery found parts in it.
-  struct Unconfirmed {
-    Eigen::Vector3f born_at = Eigen::Vector3f::Zero();
-    int votes = 0;
-  };
-  std::map<std::int32_t, Unconfirmed> unconfirmed_;
+  // Objects confirm_discovery still looks at, with where each was born (camera frame); per birth (the objects
+  // found in one cluster), the frames in which the discovery disagreed with them.
+  std::map<std::int32_t, Eigen::Vector3f> confirm_born_at_;
+  std::map<std::uint64_t, int> confirm_votes_;
   bool occlusion_scene_set_ = false;
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;
