@@ -370,20 +370,9 @@ void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const in
     create_object(scene, free_points);
     return;
   }
-  part_positions_.clear();
-  part_colors_.clear();
-  for (const int i : free_points) {
-    part_positions_.push_back(scene.positions[static_cast<std::size_t>(i)]);
-    part_colors_.push_back(scene.colors[static_cast<std::size_t>(i)]);
-  }
-  const int parts = discovery_->split(part_positions_, part_colors_, part_of_point_);
-  std::vector<std::vector<int>> points_of_part(static_cast<std::size_t>(std::max(parts, 1)));
-  for (std::size_t k = 0; k < free_points.size(); ++k) {
-    points_of_part[static_cast<std::size_t>(part_of_point_[k])].push_back(free_points[k]);
-  }
-  for (const auto& points : points_of_part) {
-    if (points.size() >= options_.min_object_points) create_object(scene, points);
-  }
+  std::vector<std::vector<int>> parts;
+  discover_parts(scene, free_points, parts);
+  for (const auto& points : parts) create_object(scene, points);
 }
 
 void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> free_points) {

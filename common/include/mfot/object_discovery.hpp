@@ -5,7 +5,8 @@
 // them once they move apart, after [KLK14]). The method is PCL's supervoxels + LCCP (Papon et
 // al. 2013; Stein et al., "Object Partitioning using Local Convexity", CVPR 2014), run in its own
 // library (mfot_discovery) behind this PCL-free interface; the per-frame clustering stays the
-// cheap Euclidean one and discovery runs only at birth.
+// cheap Euclidean one and discovery runs only at birth and, to confirm it, on the first
+// confirm_frames frames of the objects born from a cluster.
 
 #include "mfot/types.hpp"
 
