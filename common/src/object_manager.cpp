@@ -654,84 +654,91 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     for (const auto& [id, points] : members) all.insert(all.end(), points.begin(), points.end());
     if (all.size() < 2 * options_.min_object_points) continue;
     discover_parts(scene, all, parts);
-    // Each member takes the part it overlaps most, largest overlaps first, one part per member and member per
-    // part; parts left over hold an object no member is.
-    std::vector<std::tuple<std::size_t, std::int32_t, std::size_t>> overlaps;  // (points, member, part)
-    std::vector<std::map<std::int32_t, std::size_t>> held(parts.size());
-    for (std::size_t p = 0; p < parts.size(); ++p) {
-      for (const int i : parts[p]) ++held[p][frame_.labels[static_cast<std::size_t>(i)]];
-      for (const auto& [id, count] : held[p]) overlaps.emplace_back(count, id, p);
+    const PartMatch match = match_parts(parts);
+    if (!match.disagrees(static_cast<std::size_t>(o.min_part_points)) || ++confirm_votes_[birth] < o.confirm_votes) {
+      continue;
     }
-    std::sort(overlaps.begin(), overlaps.end(), [](const auto& x, const auto& y) {
-      return std::get<0>(x) != std::get<0>(y) ? std::get<0>(x) > std::get<0>(y) : std::get<1>(x) < std::get<1>(y);
-    });
-    std::map<std::int32_t, std::size_t> part_of_member;
-    std::vector<std::int32_t> member_of_part(parts.size(), 0);
-    for (const auto& [count, id, p] : overlaps) {
-      if (member_of_part[p] == 0 && !part_of_member.contains(id)) {
-        member_of_part[p] = id;
-        part_of_member[id] = p;
-      }
-    }
-    // The discovery disagrees with the objects: a part no member holds (two objects found as one), or a piece of
-    // min_part_points of one member inside the part of another (the birth frame's boundary was wrong).
-    bool disagrees = std::count(member_of_part.begin(), member_of_part.end(), 0) > 0;
-    for (std::size_t p = 0; p < parts.size() && !disagrees; ++p) {
-      for (const auto& [id, count] : held[p]) {
-        if (id != member_of_part[p] && part_of_member.contains(id) && count >= static_cast<std::size_t>(o.min_part_points)) {
-          disagrees = true;
-        }
-      }
-    }
-    if (!disagrees || ++confirm_votes_[birth] < o.confirm_votes) continue;
     confirm_votes_[birth] = 0;
-    // This frame's parts become the objects: a member keeps its part (its model rebuilt from it, points of other
-    // members in it join it), a part no member holds is a new sibling (if it then moves as one rigid body with the
-    // others, join_rigid_parts puts them together again). A member that holds no part keeps its points.
-    std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> moved;  // (from, to): points
-    std::set<std::int32_t> changed;
-    for (std::size_t p = 0; p < parts.size(); ++p) {
-      const std::int32_t to = member_of_part[p];
-      if (to == 0) continue;
-      for (const int i : parts[p]) {
-        std::int32_t& label = frame_.labels[static_cast<std::size_t>(i)];
-        if (label != to && part_of_member.contains(label)) {
-          ++moved[{label, to}];
-          changed.insert(label);
-          changed.insert(to);
-          label = to;
-        }
+    adopt_parts(scene, birth, all, parts, match);
+  }
+}
+
+ObjectManager::PartMatch ObjectManager::match_parts(const std::vector<std::vector<int>>& parts) const {
+  PartMatch match;
+  match.labels_in_part.resize(parts.size());
+  match.member_of_part.assign(parts.size(), 0);
+  std::vector<std::tuple<std::size_t, std::int32_t, std::size_t>> overlaps;  // (points, member, part)
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    for (const int i : parts[p]) ++match.labels_in_part[p][frame_.labels[static_cast<std::size_t>(i)]];
+    for (const auto& [id, count] : match.labels_in_part[p]) overlaps.emplace_back(count, id, p);
+  }
+  std::sort(overlaps.begin(), overlaps.end(), [](const auto& x, const auto& y) {
+    return std::get<0>(x) != std::get<0>(y) ? std::get<0>(x) > std::get<0>(y) : std::get<1>(x) < std::get<1>(y);
+  });
+  for (const auto& [count, id, p] : overlaps) {
+    if (match.member_of_part[p] == 0 && !match.part_of_member.contains(id)) {
+      match.member_of_part[p] = id;
+      match.part_of_member[id] = p;
+    }
+  }
+  return match;
+}
+
+bool ObjectManager::PartMatch::disagrees(std::size_t min_piece) const {
+  if (std::count(member_of_part.begin(), member_of_part.end(), 0) > 0) return true;
+  for (std::size_t p = 0; p < member_of_part.size(); ++p) {
+    for (const auto& [id, count] : labels_in_part[p]) {
+      if (id != member_of_part[p] && part_of_member.contains(id) && count >= min_piece) return true;
+    }
+  }
+  return false;
+}
+
+void ObjectManager::adopt_parts(const ColoredCloud& scene, std::uint64_t birth, std::span<const int> all,
+                                const std::vector<std::vector<int>>& parts, const PartMatch& match) {
+  std::set<std::int32_t> changed;  // members whose points changed: their models are rebuilt
+  std::set<std::pair<std::int32_t, std::int32_t>> moved;  // (from, to)
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    const std::int32_t to = match.member_of_part[p];
+    if (to == 0) continue;
+    for (const int i : parts[p]) {
+      std::int32_t& label = frame_.labels[static_cast<std::size_t>(i)];
+      if (label != to && match.part_of_member.contains(label)) {
+        moved.emplace(label, to);
+        changed.insert(label);
+        changed.insert(to);
+        label = to;
       }
     }
-    for (const auto& [pair, count] : moved) frame_.regrouped.push_back(pair);
-    for (std::size_t p = 0; p < parts.size(); ++p) {
-      if (member_of_part[p] != 0) continue;
-      std::vector<int> points;
-      std::map<std::int32_t, std::size_t> from;
-      for (const int i : parts[p]) {
-        const std::int32_t label = frame_.labels[static_cast<std::size_t>(i)];
-        if (!part_of_member.contains(label)) continue;
-        points.push_back(i);
-        ++from[label];
-      }
-      if (points.size() < options_.min_object_points) continue;
-      const std::int32_t split = std::max_element(from.begin(), from.end(), [](const auto& x, const auto& y) {
-        return x.second < y.second;
-      })->first;
-      for (const auto& [id, count] : from) changed.insert(id);
-      for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = 0;
-      current_birth_ = birth;
-      const std::size_t before = frame_.created.size();
-      create_object(scene, points);
-      if (frame_.created.size() > before) frame_.split.emplace_back(split, frame_.created.back());
+  }
+  frame_.regrouped.insert(frame_.regrouped.end(), moved.begin(), moved.end());
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    if (match.member_of_part[p] != 0) continue;
+    std::vector<int> points;  // a member that holds no part keeps its points
+    std::map<std::int32_t, std::size_t> from;
+    for (const int i : parts[p]) {
+      const std::int32_t label = frame_.labels[static_cast<std::size_t>(i)];
+      if (!match.part_of_member.contains(label)) continue;
+      points.push_back(i);
+      ++from[label];
     }
-    for (const std::int32_t id : changed) {
-      std::vector<int> own;
-      for (const int i : all) {
-        if (frame_.labels[static_cast<std::size_t>(i)] == id) own.push_back(i);
-      }
-      rebuild_model(objects_.at(id), scene, own);
+    if (points.size() < options_.min_object_points) continue;
+    const std::int32_t split = std::max_element(from.begin(), from.end(), [](const auto& x, const auto& y) {
+      return x.second < y.second;
+    })->first;
+    for (const auto& [id, count] : from) changed.insert(id);
+    for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = 0;
+    current_birth_ = birth;
+    const std::size_t before = frame_.created.size();
+    create_object(scene, points);
+    if (frame_.created.size() > before) frame_.split.emplace_back(split, frame_.created.back());
+  }
+  for (const std::int32_t id : changed) {
+    std::vector<int> own;
+    for (const int i : all) {
+      if (frame_.labels[static_cast<std::size_t>(i)] == id) own.push_back(i);
     }
+    rebuild_model(objects_.at(id), scene, own);
   }
 }
 

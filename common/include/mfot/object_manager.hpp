@@ -229,6 +229,22 @@ class ObjectManager {
   // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
   // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
   void confirm_discovery(const ColoredCloud& scene);
+  // How the discovery's parts of a birth's objects meet those objects (this frame's labels): each object takes
+  // the part it overlaps most, largest overlaps first, one part per object and object per part.
+  struct PartMatch {
+    std::vector<std::map<std::int32_t, std::size_t>> labels_in_part;  // per part: label -> its points there
+    std::vector<std::int32_t> member_of_part;                         // 0: no object took the part
+    std::map<std::int32_t, std::size_t> part_of_member;
+    // A part no object took (two objects found as one), or a piece of at least min_piece points of one object
+    // inside another's part (the birth frame's boundary was wrong).
+    bool disagrees(std::size_t min_piece) const;
+  };
+  PartMatch match_parts(const std::vector<std::vector<int>>& parts) const;
+  // This frame's parts become the objects: an object keeps its part (model rebuilt from it; other objects' points
+  // in it join it), a part no object took is a new sibling (if it then moves as one rigid body with the others,
+  // join_rigid_parts puts them together again); an object that took no part keeps its points.
+  void adopt_parts(const ColoredCloud& scene, std::uint64_t birth, std::span<const int> all,
+                   const std::vector<std::vector<int>>& parts, const PartMatch& match);
   // The discovery's parts of the points (scene indices) with at least min_object_points each.
   void discover_parts(const ColoredCloud& scene, std::span<const int> points, std::vector<std::vector<int>>& parts);
   // The object's model becomes the points (scene indices) in its frame, thinned evenly.
