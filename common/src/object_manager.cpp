@@ -47,6 +47,10 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.propagation_radius must be in [0, 0.1] m, got " +
                                 std::to_string(propagation_radius));
   }
+  if (!(held_birth_margin >= 0.f && held_birth_margin <= 0.5f)) {
+    throw std::invalid_argument("ObjectManagerOptions.held_birth_margin must be in [0, 0.5] m, got " +
+                                std::to_string(held_birth_margin));
+  }
   if (!(hidden_occluded_share >= 0.f && hidden_occluded_share <= 1.f)) {
     throw std::invalid_argument("ObjectManagerOptions.hidden_occluded_share must be in [0, 1], got " +
                                 std::to_string(hidden_occluded_share));
@@ -208,7 +212,10 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   } else {
     for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
-    for (const int c : confirmed_) create_objects(scene, clusters_.cluster(static_cast<std::size_t>(c)));
+    for (const int c : confirmed_) {
+      const auto cluster = clusters_.cluster(static_cast<std::size_t>(c));
+      if (!inside_held_object(scene, cluster)) create_objects(scene, cluster);
+    }
   }
   // 7. join parts that move as one, split objects whose parts moved apart
   frame_.joined.clear();
@@ -220,6 +227,30 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
   ++frames_;
   return frame_;
+}
+
+bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<const int> cluster_points) const {
+  if (options_.held_birth_margin <= 0.f) return false;
+  std::vector<int> free_points;
+  for (const int i : cluster_points) {
+    if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
+  }
+  const std::size_t free = free_points.size();
+  std::size_t inside = 0;
+  for (const auto& [id, object] : objects_) {
+    if (!object.held || free_points.empty()) continue;
+    const Eigen::AlignedBox3f box = model_bounding_box(object.model);
+    if (box.isEmpty()) continue;
+    // Its bounding sphere: a held estimate may be off in any rotation, so the box's own axes say little.
+    const Eigen::Vector3f center = object.pose.isometry() * box.center();
+    const float radius = 0.5f * box.diagonal().norm() + options_.held_birth_margin;
+    std::erase_if(free_points, [&](int i) {
+      const bool within = (scene.positions[static_cast<std::size_t>(i)] - center).norm() <= radius;
+      inside += within ? 1 : 0;
+      return within;
+    });
+  }
+  return free > 0 && 2 * inside >= free;
 }
 
 void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points) {

@@ -235,7 +235,7 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   expect_rejected(load_tracker_config, "tracker:\n  companion_fraction: 1.5\n", "companion_fraction");
 }
 
-TEST(Config, DiscoveryConfirmKeysReachTheManager) {
+TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  discovery:\n    confirm_frames: 20\n    confirm_votes: 4\n    confirm_max_motion: 0.02\n"));
   EXPECT_EQ(m.manager.discovery.confirm_frames, 20);
@@ -244,6 +244,8 @@ TEST(Config, DiscoveryConfirmKeysReachTheManager) {
   for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
+  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("merger:\n  new_object_held_margin: 0.05\n")).manager.held_birth_margin, 0.05f);
+  expect_rejected(load_merger_config, "merger:\n  new_object_held_margin: 0.6\n", "new_object_held_margin");
   // More votes than frames: the options' own check, named.
   expect_rejected(load_merger_config, "merger:\n  discovery:\n    confirm_frames: 2\n    confirm_votes: 3\n",
                   "confirm_votes");

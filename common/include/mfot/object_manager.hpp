@@ -92,6 +92,11 @@ struct ObjectManagerOptions {
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
   // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
   float hidden_occluded_share = 0.0f;
+  // Unexplained points of a persisting cluster that lie mostly (half or more) inside a held object's model
+  // bounding box at its pose, grown by this (metres), are no new object: they are the held object's own points,
+  // its estimate stale while its tracker holds it (a box turned inside the hand whose claims cover it). [0, 0.5];
+  // 0 = off (the thesis holds nothing).
+  float held_birth_margin = 0.0f;
   OcclusionOptions occlusion;
   // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
   // make_object_discovery and hand it to the manager (the manager itself only validates it).
@@ -214,6 +219,8 @@ class ObjectManager {
   // The cluster's unexplained points, split by the discovery when there is one, become objects.
   void create_objects(const ColoredCloud& scene, std::span<const int> cluster_points);
   void create_object(const ColoredCloud& scene, std::span<const int> points);
+  // Step 5: whether most of the cluster's unexplained points lie inside a held object (held_birth_margin).
+  bool inside_held_object(const ColoredCloud& scene, std::span<const int> cluster_points) const;
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);

@@ -169,6 +169,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.support.max_frames = s.get<int>("retire_frames", 1, 10000);
   c.manager.hidden_occluded_share =
       s.get<float>("hidden_occluded_share", 0.f, 1.f);
+  c.manager.held_birth_margin = s.get<float>("new_object_held_margin", 0.f, 0.5f);
   c.manager.occlusion.depth_margin =
       s.get<float>("hidden_depth_margin", 0.f, 1.f);
   c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 1, 600000);
