@@ -164,7 +164,8 @@ struct ObjectManagerFrame {
 //      their models by the points they gain (thinned evenly over the whole model when it
 //      would exceed max_model_points);
 //   6. create objects from clusters that no object explains: at the first frame every cluster,
-//      later only clusters persisting for a few frames (non-contact case, after [KLK14]); with a
+//      later only clusters persisting for a few frames (non-contact case, after [KLK14]) and not
+//      lying mostly inside a held object (held_birth_margin: its own points); with a
 //      discovery (object_discovery.hpp) such a cluster's unexplained points are first split into
 //      their locally convex parts, each an object (touching and stacked objects apart); a new
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
