@@ -208,13 +208,13 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     }
   }
   if (frames_ == 0 && objects_.empty()) {
-    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, clusters_.cluster(c));
+    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, unexplained_points(clusters_.cluster(c)));
   } else {
     for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));
     detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
     for (const int c : confirmed_) {
-      const auto cluster = clusters_.cluster(static_cast<std::size_t>(c));
-      if (!inside_held_object(scene, cluster)) create_objects(scene, cluster);
+      const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
+      if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
     }
   }
   // 7. join parts that move as one, split objects whose parts moved apart
@@ -229,28 +229,32 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   return frame_;
 }
 
-bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<const int> cluster_points) const {
-  if (options_.held_birth_margin <= 0.f) return false;
+std::vector<int> ObjectManager::unexplained_points(std::span<const int> cluster_points) const {
   std::vector<int> free_points;
   for (const int i : cluster_points) {
     if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
   }
-  const std::size_t free = free_points.size();
+  return free_points;
+}
+
+bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const {
+  if (options_.held_birth_margin <= 0.f) return false;
+  std::vector<int> outside(free_points.begin(), free_points.end());  // not yet inside a held object
   std::size_t inside = 0;
   for (const auto& [id, object] : objects_) {
-    if (!object.held || free_points.empty()) continue;
+    if (!object.held || outside.empty()) continue;
     const Eigen::AlignedBox3f box = model_bounding_box(object.model);
     if (box.isEmpty()) continue;
     // Its bounding sphere: a held estimate may be off in any rotation, so the box's own axes say little.
     const Eigen::Vector3f center = object.pose.isometry() * box.center();
     const float radius = 0.5f * box.diagonal().norm() + options_.held_birth_margin;
-    std::erase_if(free_points, [&](int i) {
+    std::erase_if(outside, [&](int i) {
       const bool within = (scene.positions[static_cast<std::size_t>(i)] - center).norm() <= radius;
       inside += within ? 1 : 0;
       return within;
     });
   }
-  return free > 0 && 2 * inside >= free;
+  return !free_points.empty() && 2 * inside >= free_points.size();
 }
 
 void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points) {
@@ -389,12 +393,7 @@ std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram) const {
   return best;
 }
 
-void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> cluster_points) {
-  // Only the cluster's points that no object explains form new models.
-  std::vector<int> free_points;
-  for (const int i : cluster_points) {
-    if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
-  }
+void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> free_points) {
   if (free_points.size() < options_.min_object_points) return;
   current_birth_ = next_birth_++;  // the objects of this cluster are siblings
   if (!discovery_ || free_points.size() < 2 * options_.min_object_points) {

@@ -40,14 +40,15 @@ struct DiscoveryOptions {
   // Parts with fewer points than this are no objects: their points join the neighbouring larger
   // part they touch (a label on a can, a handle seen edge-on), >= 1.
   int min_part_points = 150;
-  // Discovery confirmed over an object's first frames: in each of the confirm_frames frames after
-  // its birth the discovery splits the object's segmented points again, and once it has split them
-  // in confirm_votes of those frames the object is split (ObjectManager step 7): touching objects
-  // that the birth frame's sensor noise joined come apart in the frames after, each frame's noise
-  // being new. confirm_frames [0, 1000], 0 = off (discovery at birth only); confirm_votes >= 1 and
-  // at most confirm_frames.
-  // Only while the object stays within confirm_max_motion (metres, (0, 1]) of where it was born:
-  // a moving object (a hand reaching in) shows new parts of itself, not new noise.
+  // Discovery confirmed over the first frames: in each of the confirm_frames frames after their
+  // birth the discovery splits the segmented points of the objects born from one cluster again,
+  // together, and once its parts disagreed with those objects in confirm_votes of those frames,
+  // that frame's parts become the objects (ObjectManager step 7): touching objects that the birth
+  // frame's sensor noise joined come apart in the frames after, each frame's noise being new.
+  // confirm_frames [0, 1000], 0 = off (discovery at birth only); confirm_votes >= 1 and at most
+  // confirm_frames. An object takes part only while it stays within confirm_max_motion (metres,
+  // (0, 1]) of where it was born: a moving object (a hand reaching in) shows new parts of itself,
+  // not new noise.
   int confirm_frames = 0;
   int confirm_votes = 3;
   float confirm_max_motion = 0.01f;

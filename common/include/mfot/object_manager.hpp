@@ -92,10 +92,10 @@ struct ObjectManagerOptions {
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
   // towards its retirement. [0, 1]; 0 = every frame counts (the thesis has no retirement rule).
   float hidden_occluded_share = 0.0f;
-  // Unexplained points of a persisting cluster that lie mostly (half or more) inside a held object's model
-  // bounding box at its pose, grown by this (metres), are no new object: they are the held object's own points,
-  // its estimate stale while its tracker holds it (a box turned inside the hand whose claims cover it). [0, 0.5];
-  // 0 = off (the thesis holds nothing).
+  // Unexplained points of a persisting cluster that lie mostly (half or more) inside a held object's bounding
+  // sphere (its model's bounding box at its pose, half the diagonal grown by this, metres) are no new object: they
+  // are the held object's own points, its estimate stale while its tracker holds it (a box turned inside the hand
+  // whose claims cover it). [0, 0.5]; 0 = off (the thesis holds nothing).
   float held_birth_margin = 0.0f;
   OcclusionOptions occlusion;
   // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
@@ -145,7 +145,7 @@ struct ObjectManagerFrame {
   std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
-  // (object, sibling) this frame: confirm_discovery gave a part of the object to the sibling it is one convex piece with.
+  // (object, sibling) this frame: confirm_discovery gave points of the object to the sibling whose part they lie in.
   std::vector<std::pair<std::int32_t, std::int32_t>> regrouped;
 };
 
@@ -173,8 +173,9 @@ struct ObjectManagerFrame {
 //      back, and with reidentify_register its remembered model is registered on the new points
 //      so that it keeps its object frame (else its model and frame are new: the pose jumps once);
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
-//      apart (JoinSplitOptions), and split a young object in which the discovery found parts again
-//      in confirm_votes of its first confirm_frames frames (DiscoveryOptions).
+//      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
+//      one cluster, discover their points again together: once that disagreed with them in
+//      confirm_votes frames, its parts become the objects (DiscoveryOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -217,11 +218,13 @@ class ObjectManager {
   // The remembered id the histogram matches best, or 0.
   std::int32_t reidentify(const ColorHistogram& histogram) const;
 
-  // The cluster's unexplained points, split by the discovery when there is one, become objects.
-  void create_objects(const ColoredCloud& scene, std::span<const int> cluster_points);
+  // A cluster's points that no object explains (label 0): only they form new models.
+  std::vector<int> unexplained_points(std::span<const int> cluster_points) const;
+  // A cluster's unexplained points, split by the discovery when there is one, become objects.
+  void create_objects(const ColoredCloud& scene, std::span<const int> free_points);
   void create_object(const ColoredCloud& scene, std::span<const int> points);
-  // Step 5: whether most of the cluster's unexplained points lie inside a held object (held_birth_margin).
-  bool inside_held_object(const ColoredCloud& scene, std::span<const int> cluster_points) const;
+  // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
+  bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
