@@ -31,6 +31,13 @@ void IcpRefinementOptions::validate(const std::string& owner) const {
   if (!(max_points >= 3 && max_points <= 1000000)) {
     throw std::invalid_argument(owner + ".max_points must be in [3, 1000000], got " + std::to_string(max_points));
   }
+  if (!(final_iterations >= 0 && final_iterations <= iterations)) {
+    throw std::invalid_argument(owner + ".final_iterations must be in [0, iterations = " + std::to_string(iterations) +
+                                "], got " + std::to_string(final_iterations));
+  }
+  if (!(final_points >= 3 && final_points <= 1000000)) {
+    throw std::invalid_argument(owner + ".final_points must be in [3, 1000000], got " + std::to_string(final_points));
+  }
 }
 
 namespace {
@@ -38,6 +45,13 @@ namespace {
 const IcpRefinementOptions& validated(const IcpRefinementOptions& options) {
   options.validate();
   return options;
+}
+
+// An even stride over scene with at most max_points of them.
+void even_sample(std::span<const Eigen::Vector3f> scene, int max_points, std::vector<Eigen::Vector3f>& out) {
+  const std::size_t stride = (scene.size() + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points);
+  out.clear();
+  for (std::size_t i = 0; i < scene.size(); i += stride) out.push_back(scene[i]);
 }
 
 // The rotation and translation minimising sum |R m_i + t - s_i|^2 (Arun et al. 1987), in double.
@@ -79,18 +93,18 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
     hashed_model_.assign(model.begin(), model.end());
     model_hash_.build(hashed_model_);
   }
-  const std::size_t stride = (scene.size() + static_cast<std::size_t>(options_.max_points) - 1) /
-                             static_cast<std::size_t>(options_.max_points);
-  sample_.clear();
-  for (std::size_t i = 0; i < scene.size(); i += stride) sample_.push_back(scene[i]);
-  result.sampled = sample_.size();
-  const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample_.size())));
+  even_sample(scene, options_.max_points, sample_);
+  if (options_.final_iterations > 0) even_sample(scene, options_.final_points, final_sample_);
+  const int first_final = options_.iterations - options_.final_iterations;
   Eigen::Isometry3f pose = start.isometry();
   for (int iteration = 0; iteration < options_.iterations; ++iteration) {
+    const std::vector<Eigen::Vector3f>& sample = iteration < first_final ? sample_ : final_sample_;
+    result.sampled = sample.size();
+    const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
     const Eigen::Isometry3f to_object = pose.inverse();
     paired_model_.clear();
     paired_scene_.clear();
-    for (const Eigen::Vector3f& p : sample_) {
+    for (const Eigen::Vector3f& p : sample) {
       const int nearest = model_hash_.nearest(to_object * p, options_.max_distance);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
