@@ -47,6 +47,11 @@ const IcpRefinementOptions& validated(const IcpRefinementOptions& options) {
   return options;
 }
 
+// Each pairing first looks this share of max_distance around the point: where a model point lies that near
+// it is the nearest within max_distance too (ties included), found among a few cells' points instead of 27
+// cells'; only the points with none that near are looked up again over the whole max_distance. Same pairs.
+constexpr float kNearSearch = 0.4f;
+
 // An even stride over scene with at most max_points of them.
 void even_sample(std::span<const Eigen::Vector3f> scene, int max_points, std::vector<Eigen::Vector3f>& out) {
   const std::size_t stride = (scene.size() + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points);
@@ -107,7 +112,9 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
     paired_model_.clear();
     paired_scene_.clear();
     for (const Eigen::Vector3f& p : sample) {
-      const int nearest = model_hash_.nearest(to_object * p, options_.max_distance);
+      const Eigen::Vector3f local = to_object * p;
+      int nearest = model_hash_.nearest(local, kNearSearch * options_.max_distance);
+      if (nearest < 0) nearest = model_hash_.nearest(local, options_.max_distance);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
       paired_scene_.push_back(p);
