@@ -104,6 +104,7 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
   if (options_.final_iterations > 0) even_sample(scene, options_.final_points, final_sample_);
   const int first_final = options_.iterations - options_.final_iterations;
   Eigen::Isometry3f pose = start.isometry();
+  const std::vector<Eigen::Vector3f>* previous_sample = nullptr;
   for (int iteration = 0; iteration < options_.iterations; ++iteration) {
     const std::vector<Eigen::Vector3f>& sample = iteration < first_final ? sample_ : final_sample_;
     result.sampled = sample.size();
@@ -111,16 +112,22 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
     const Eigen::Isometry3f to_object = pose.inverse();
     paired_model_.clear();
     paired_scene_.clear();
+    nearest_.swap(previous_nearest_);
+    nearest_.clear();
     for (const Eigen::Vector3f& p : sample) {
       const Eigen::Vector3f local = to_object * p;
       int nearest = model_hash_.nearest(local, kNearSearch * options_.max_distance);
       if (nearest < 0) nearest = model_hash_.nearest(local, options_.max_distance);
+      nearest_.push_back(nearest);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
       paired_scene_.push_back(p);
     }
     result.paired = paired_model_.size();
     if (paired_model_.size() < std::max<std::size_t>(needed, 3)) return result;
+    // The same sample paired as in the last iteration: the fit, so the pose, would be the last one (converged).
+    if (&sample == previous_sample && nearest_ == previous_nearest_) break;
+    previous_sample = &sample;
     pose = rigid_fit(paired_model_, paired_scene_);
   }
   const Pose refined = Pose::from_isometry(pose);

@@ -59,7 +59,8 @@ struct IcpResult {
 //     pose, pair each with the nearest model point within max_distance; with fewer than
 //     min_paired_share of them paired, stop and keep the start pose;
 //  3. the rigid transform that best maps the paired model points onto their scene points (least
-//     squares, closed form) is the new pose;
+//     squares, closed form) is the new pose; when every point of the same sample paired as in the last
+//     iteration, that is the pose already (converged) and the iterations end;
 //  4. after the iterations, refuse a pose further from the start than max_translation /
 //     max_rotation.
 // Deterministic, no random draws. Non-copyable: it owns the model hash (kept while the model's points
@@ -81,6 +82,8 @@ class IcpRefinement {
   std::vector<Eigen::Vector3f> hashed_model_;  // the points model_hash_ was built on
   std::vector<Eigen::Vector3f> sample_;        // max_points
   std::vector<Eigen::Vector3f> final_sample_;  // final_points
+  std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
+  std::vector<int> previous_nearest_;  // ... and in the last
   std::vector<Eigen::Vector3f> paired_model_;
   std::vector<Eigen::Vector3f> paired_scene_;
 };
