@@ -56,7 +56,7 @@ SpatialHash::SpatialHash(float cell_size) : cell_size_(cell_size), inv_cell_(0.f
   inv_cell_ = 1.f / cell_size;
 }
 
-std::array<int, 3> SpatialHash::cell_of(const Eigen::Vector3f& p) const {
+inline std::array<int, 3> SpatialHash::cell_of(const Eigen::Vector3f& p) const {
   return {clamped_cell(p.x() * inv_cell_), clamped_cell(p.y() * inv_cell_), clamped_cell(p.z() * inv_cell_)};
 }
 
