@@ -125,8 +125,13 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
     }
     result.paired = paired_model_.size();
     if (paired_model_.size() < std::max<std::size_t>(needed, 3)) return result;
-    // The same sample paired as in the last iteration: the fit, so the pose, would be the last one (converged).
-    if (&sample == previous_sample && nearest_ == previous_nearest_) break;
+    // The same sample paired as in the last iteration: the fit, so the pose, would be the last one (converged)
+    // until the sample changes; the final iterations, on their own sample, still run.
+    if (&sample == previous_sample && nearest_ == previous_nearest_) {
+      if (iteration >= first_final) break;
+      iteration = first_final - 1;
+      continue;
+    }
     previous_sample = &sample;
     pose = rigid_fit(paired_model_, paired_scene_);
   }

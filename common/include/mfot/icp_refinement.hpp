@@ -60,7 +60,8 @@ struct IcpResult {
 //     min_paired_share of them paired, stop and keep the start pose;
 //  3. the rigid transform that best maps the paired model points onto their scene points (least
 //     squares, closed form) is the new pose; when every point of the same sample paired as in the last
-//     iteration, that is the pose already (converged) and the iterations end;
+//     iteration, that is the pose already (converged): the iterations on that sample end (the final ones,
+//     on their own sample, still run);
 //  4. after the iterations, refuse a pose further from the start than max_translation /
 //     max_rotation.
 // Deterministic, no random draws. Non-copyable: it owns the model hash (kept while the model's points
