@@ -54,7 +54,8 @@ constexpr float kNearSearch = 0.4f;
 
 // An even stride over scene with at most max_points of them.
 void even_sample(std::span<const Eigen::Vector3f> scene, int max_points, std::vector<Eigen::Vector3f>& out) {
-  const std::size_t stride = (scene.size() + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points);
+  const auto points = static_cast<std::size_t>(max_points);
+  const std::size_t stride = (scene.size() + points - 1) / points;
   out.clear();
   for (std::size_t i = 0; i < scene.size(); i += stride) out.push_back(scene[i]);
 }
@@ -90,25 +91,11 @@ Eigen::Isometry3f rigid_fit(std::span<const Eigen::Vector3f> model, std::span<co
 IcpRefinement::IcpRefinement(const IcpRefinementOptions& options)
     : options_(validated(options)), model_hash_(options.max_distance) {}
 
-IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
-                                const Pose& start) {
-  IcpResult result;
-  result.pose = start;
-  if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
-  // Models change only with a new version (growth, update): the hash is rebuilt only when the points differ.
-  if (!std::equal(model.begin(), model.end(), hashed_model_.begin(), hashed_model_.end())) {
-    hashed_model_.assign(model.begin(), model.end());
-    model_hash_.build(hashed_model_);
-  }
-  even_sample(scene, options_.max_points, sample_);
-  if (options_.final_iterations > 0) even_sample(scene, options_.final_points, final_sample_);
-  const int first_final = options_.iterations - options_.final_iterations;
-  Eigen::Isometry3f pose = start.isometry();
-  const std::vector<Eigen::Vector3f>* previous_sample = nullptr;
-  for (int iteration = 0; iteration < options_.iterations; ++iteration) {
-    const std::vector<Eigen::Vector3f>& sample = iteration < first_final ? sample_ : final_sample_;
-    result.sampled = sample.size();
-    const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
+bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
+                            Eigen::Isometry3f& pose, IcpResult& result) {
+  result.sampled = sample.size();
+  const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
+  for (int iteration = 0; iteration < count; ++iteration) {
     const Eigen::Isometry3f to_object = pose.inverse();
     paired_model_.clear();
     paired_scene_.clear();
@@ -124,16 +111,33 @@ IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::spa
       paired_scene_.push_back(p);
     }
     result.paired = paired_model_.size();
-    if (paired_model_.size() < std::max<std::size_t>(needed, 3)) return result;
-    // The same sample paired as in the last iteration: the fit, so the pose, would be the last one (converged)
-    // until the sample changes; the final iterations, on their own sample, still run.
-    if (&sample == previous_sample && nearest_ == previous_nearest_) {
-      if (iteration >= first_final) break;
-      iteration = first_final - 1;
-      continue;
-    }
-    previous_sample = &sample;
+    if (paired_model_.size() < std::max<std::size_t>(needed, 3)) return false;
+    // Paired as in the last iteration: the fit, so the pose, would be the last one (converged).
+    if (iteration > 0 && nearest_ == previous_nearest_) return true;
     pose = rigid_fit(paired_model_, paired_scene_);
+  }
+  return true;
+}
+
+IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
+                                const Pose& start) {
+  IcpResult result;
+  result.pose = start;
+  if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
+  // Models change only with a new version (growth, update): the hash is rebuilt only when the points differ.
+  if (!std::equal(model.begin(), model.end(), hashed_model_.begin(), hashed_model_.end())) {
+    hashed_model_.assign(model.begin(), model.end());
+    model_hash_.build(hashed_model_);
+  }
+  Eigen::Isometry3f pose = start.isometry();
+  const int sparse_iterations = options_.iterations - options_.final_iterations;
+  if (sparse_iterations > 0) {
+    even_sample(scene, options_.max_points, sample_);
+    if (!iterate(sample_, model, sparse_iterations, pose, result)) return result;
+  }
+  if (options_.final_iterations > 0) {
+    even_sample(scene, options_.final_points, sample_);
+    if (!iterate(sample_, model, options_.final_iterations, pose, result)) return result;
   }
   const Pose refined = Pose::from_isometry(pose);
   if ((refined.translation - start.translation).norm() > options_.max_translation ||

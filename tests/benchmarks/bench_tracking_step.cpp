@@ -3,9 +3,10 @@
 // (EstimateFit) on the same points, and the whole TrackingStep with and without the motion-model
 // options (pattern-search refinement, annealing, the isolated-object step of configs/default.yaml: a
 // quarter more particles moved by dX and 2 refinement rounds while no other object is near, and the ICP
-// refinement: 10 iterations on up to 2000 points as configured, 5 on 200 as before, or 10 whose last 3 take 2000). The object is the synthetic 10 x 15 x 8 cm test
-// box (~1500 model points at 5 mm) turning 3 degrees and moving 5 mm a frame, seen with its near
-// side and a flat patch beside it in the hypothesis margin. Every figure is the median over the
+// refinement: 10 iterations on up to 2000 points as configured, 5 on 200 as before, or 10 whose last 3
+// take 2000). The object is the synthetic 10 x 15 x 8 cm test box (~1500 model points at 5 mm)
+// turning 3 degrees and moving 5 mm a frame, seen with its near side and a flat patch beside it in the
+// hypothesis margin. Every figure is the median over the
 // frames of a run.
 //
 // Usage: mfot_bench_tracking_step [--frames N]

@@ -31,14 +31,14 @@ struct IcpRefinementOptions {
   // correction this large is not a local one. Metres [0, 1] and radians [0, pi].
   float max_translation = 0.02f;
   float max_rotation = 0.175f;
-  // At most this many scene points take part, an even stride over them (a rigid fit needs few; the
-  // nearest-point queries are the cost). [3, 1000000]
+  // At most this many scene points take part, an even stride over them (the nearest-point queries are
+  // the cost; too few leave the fit's noise, and a weakly held direction such as a hand's roll about its
+  // forearm, which shows only in its palm, rests on a handful of them). [3, 1000000]
   int max_points = 400;
-  // The last final_iterations iterations take up to final_points scene points instead (0 = none): a
-  // sparse sample converges as fast as a dense one, but the fit's noise falls with the points of the
-  // last iterations. A hand's roll about its forearm shows only in its palm (a few dozen of 200
-  // points from a 3500-point hand), so a hand turning a box it hides was followed 10-20 degrees off.
-  // [0, iterations] and [3, 1000000].
+  // The last final_iterations iterations take up to final_points scene points instead (0 = none): the
+  // early iterations move the estimate on a cheap sample, the last ones average the noise out on a dense
+  // one. Cheaper than every iteration on final_points, but it follows weakly held directions less well
+  // (README "ICP on 2000 points"). [0, iterations] and [3, 1000000].
   int final_iterations = 0;
   int final_points = 400;
   // Throws std::invalid_argument naming the field as owner.field.
@@ -59,9 +59,9 @@ struct IcpResult {
 //     pose, pair each with the nearest model point within max_distance; with fewer than
 //     min_paired_share of them paired, stop and keep the start pose;
 //  3. the rigid transform that best maps the paired model points onto their scene points (least
-//     squares, closed form) is the new pose; when every point of the same sample paired as in the last
-//     iteration, that is the pose already (converged): the iterations on that sample end (the final ones,
-//     on their own sample, still run);
+//     squares, closed form) is the new pose; when every point of the sample paired as in the last
+//     iteration, that is the pose already (converged): the iterations on that sample end (the final
+//     ones, on their own sample, still run);
 //  4. after the iterations, refuse a pose further from the start than max_translation /
 //     max_rotation.
 // Deterministic, no random draws. Non-copyable: it owns the model hash (kept while the model's points
@@ -81,8 +81,11 @@ class IcpRefinement {
   IcpRefinementOptions options_;
   SpatialHash model_hash_;
   std::vector<Eigen::Vector3f> hashed_model_;  // the points model_hash_ was built on
-  std::vector<Eigen::Vector3f> sample_;        // max_points
-  std::vector<Eigen::Vector3f> final_sample_;  // final_points
+  // Runs up to count iterations on one sample (steps 2-3), moving pose; false when too few of it paired.
+  bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
+               Eigen::Isometry3f& pose, IcpResult& result);
+
+  std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
   std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
   std::vector<int> previous_nearest_;  // ... and in the last
   std::vector<Eigen::Vector3f> paired_model_;
