@@ -5,6 +5,7 @@
 #include "mfot/option_range.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numbers>
 
 namespace mfot {
@@ -19,6 +20,8 @@ void CarryOptions::validate() const {
   in("min_motion", min_motion, 0, 1, true);
   in("min_turn_deg", min_turn_deg, 0, 180, true);
   in("contact_distance", contact_distance, 0, 0.1, true);
+  in("seen_through_share", seen_through_share, 0, 1, false);
+  in("carried_seen_through_share", carried_seen_through_share, 0, 1, false);
 }
 
 namespace {
@@ -29,6 +32,11 @@ const CarryOptions& validated(const CarryOptions& options) {
 }
 
 float radians(float degrees) { return degrees * std::numbers::pi_v<float> / 180.f; }
+
+bool moved_at_least(const Pose& now, const Pose& before, float motion, float turn_deg) {
+  return (now.translation - before.translation).norm() >= motion ||
+         now.rotation.angularDistance(before.rotation) >= radians(turn_deg);
+}
 
 }  // namespace
 
@@ -52,13 +60,75 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
   watch.last_seen = relative;
   watch.recent.push_back(relative);
   if (watch.recent.size() > static_cast<std::size_t>(options_.frames)) watch.recent.pop_front();
-  watch.neighbour_moved =
-      watch.neighbour_moved ||
-      (neighbour.pose.translation - watch.neighbour_at_start.translation).norm() >= options_.min_motion ||
-      neighbour.pose.rotation.angularDistance(watch.neighbour_at_start.rotation) >= radians(options_.min_turn_deg);
+  watch.neighbour_moved = watch.neighbour_moved || moved_at_least(neighbour.pose, watch.neighbour_at_start,
+                                                                  options_.min_motion, options_.min_turn_deg);
 }
 
-const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const Object> objects, const TouchTest& touch) {
+void CarryMonitor::observe_hidden(const Object& object, const Object& neighbour) {
+  const auto [it, first] = hidden_watches_.try_emplace({object.id, neighbour.id});
+  HiddenWatch& watch = it->second;
+  ++watch.frames;
+  if (watch.carrying) return;
+  // The frame's step in units of min_motion / min_turn_deg: the least since the hidden watch began is the grip.
+  const float step = first ? std::numeric_limits<float>::infinity()
+                           : std::max((neighbour.pose.translation - watch.neighbour_before.translation).norm() /
+                                          options_.min_motion,
+                                      neighbour.pose.rotation.angularDistance(watch.neighbour_before.rotation) /
+                                          radians(options_.min_turn_deg));
+  watch.neighbour_before = neighbour.pose;
+  if (!first && step > watch.grip_step) return;
+  watch.grip_step = step;
+  watch.relative = neighbour.pose.isometry().inverse() * object.pose.isometry();
+  watch.neighbour_at_grip = neighbour.pose;
+}
+
+const CarryMonitor::Object* CarryMonitor::watched_carrier(const Object& object, std::span<const Object> objects,
+                                                          Eigen::Isometry3f& relative) const {
+  const Object* carrier = nullptr;
+  const Watch* carrier_watch = nullptr;
+  for (const Object& neighbour : objects) {
+    if (neighbour.hidden || neighbour.id == object.id) continue;
+    const auto it = watches_.find({object.id, neighbour.id});
+    if (it == watches_.end() || it->second.frames < options_.frames || !it->second.neighbour_moved) continue;
+    const bool better = carrier_watch == nullptr || it->second.frames > carrier_watch->frames ||
+                        (it->second.frames == carrier_watch->frames && neighbour.id < carrier->id);
+    if (better) {
+      carrier = &neighbour;
+      carrier_watch = &it->second;
+    }
+  }
+  if (carrier_watch != nullptr) relative = carrier_watch->last_seen;
+  return carrier;
+}
+
+const CarryMonitor::Object* CarryMonitor::gripping_carrier(const Object& object, std::span<const Object> objects,
+                                                           HiddenWatch** watch) {
+  const Object* carrier = nullptr;
+  *watch = nullptr;
+  for (const Object& neighbour : objects) {
+    if (neighbour.hidden || neighbour.id == object.id) continue;
+    const auto it = hidden_watches_.find({object.id, neighbour.id});
+    if (it == hidden_watches_.end()) continue;
+    HiddenWatch& candidate = it->second;
+    if (!candidate.carrying && !moved_at_least(neighbour.pose, candidate.neighbour_at_grip, options_.min_motion,
+                                               options_.min_turn_deg)) {
+      continue;
+    }
+    // A watch already carrying wins: the object goes on with the neighbour that took it.
+    const bool better = *watch == nullptr || candidate.carrying > (*watch)->carrying ||
+                        (candidate.carrying == (*watch)->carrying &&
+                         (candidate.frames > (*watch)->frames ||
+                          (candidate.frames == (*watch)->frames && neighbour.id < carrier->id)));
+    if (better) {
+      carrier = &neighbour;
+      *watch = &candidate;
+    }
+  }
+  return carrier;
+}
+
+const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const Object> objects, const TouchTest& touch,
+                                                               const SeenThroughTest& seen_through) {
   carried_.clear();
   if (options_.frames == 0) return carried_;
   // 1. watches of the pairs seen this frame
@@ -75,32 +145,49 @@ const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const O
       observe(objects[b], objects[a]);
     }
   }
-  // 2, 3. hidden objects and their carriers
-  for (const Object& object : objects) {
-    if (!object.hidden) continue;
-    const Object* carrier = nullptr;
-    const Watch* carrier_watch = nullptr;
-    for (const Object& neighbour : objects) {
-      if (neighbour.hidden || neighbour.id == object.id) continue;
-      const auto it = watches_.find({object.id, neighbour.id});
-      if (it == watches_.end() || it->second.frames < options_.frames || !it->second.neighbour_moved) continue;
-      const bool better = carrier_watch == nullptr || it->second.frames > carrier_watch->frames ||
-                          (it->second.frames == carrier_watch->frames && neighbour.id < carrier->id);
-      if (better) {
-        carrier = &neighbour;
-        carrier_watch = &it->second;
+  // 4. hidden watches: touching pairs of a hidden and a seen object; a seen object's go
+  if (options_.seen_through_share > 0.f) {
+    for (const Object& object : objects) {
+      if (!object.hidden) {
+        std::erase_if(hidden_watches_, [&](const auto& entry) { return entry.first.first == object.id; });
+        continue;
+      }
+      for (const Object& neighbour : objects) {
+        if (neighbour.hidden || neighbour.id == object.id) continue;
+        if (touch(object.id, neighbour.id)) observe_hidden(object, neighbour);
       }
     }
-    if (carrier != nullptr) {
-      carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * carrier_watch->last_seen)});
+  }
+  // 2, 3, 5, 6. hidden objects and their carriers
+  for (const Object& object : objects) {
+    if (!object.hidden) continue;
+    Eigen::Isometry3f relative;
+    const Object* carrier = watched_carrier(object, objects, relative);
+    if (carrier == nullptr && options_.seen_through_share > 0.f) {
+      HiddenWatch* watch = nullptr;
+      carrier = gripping_carrier(object, objects, &watch);
+      const auto taken = [&] {
+        return seen_through(object.id, object.pose) >= options_.seen_through_share &&
+               seen_through(object.id, Pose::from_isometry(carrier->pose.isometry() * watch->relative)) <=
+                   options_.carried_seen_through_share;
+      };
+      if (carrier != nullptr && (watch->carrying || taken())) {
+        watch->carrying = true;
+        relative = watch->relative;
+      } else {
+        carrier = nullptr;
+      }
     }
+    if (carrier != nullptr) carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * relative)});
   }
   std::sort(carried_.begin(), carried_.end(), [](const Carried& x, const Carried& y) { return x.id < y.id; });
   return carried_;
 }
 
 void CarryMonitor::forget(std::int32_t id) {
-  std::erase_if(watches_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
+  const auto involves = [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; };
+  std::erase_if(watches_, involves);
+  std::erase_if(hidden_watches_, involves);
 }
 
 }  // namespace mfot

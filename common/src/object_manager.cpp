@@ -135,7 +135,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       model_radius_[id] = radius;
     }
   }
-  if (options_.carry.frames > 0) carry_hidden();
+  occlusion_scene_set_ = false;  // scene_occlusion() indexes this frame's scene once, when a step needs it
+  if (options_.carry.frames > 0) carry_hidden(scene);
   if (options_.companion.contact_distance > 0.f) choose_companions();
 
   // 2. segmentation (3.22, 3.23)
@@ -157,18 +158,14 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
 
   // 4. retire objects without support, unless hidden
   hidden_.assign(segmentation_.object_ids.size(), 0);
-  occlusion_scene_set_ = false;
   for (std::size_t k = 0; k < segmentation_.object_ids.size(); ++k) {
     if (options_.hidden_occluded_share <= 0.f || segmentation_.counts[k] >= options_.support.min_points) continue;
-    if (!occlusion_scene_set_) {
-      occlusion_.set_scene(scene.positions);
-      occlusion_scene_set_ = true;
-    }
     const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
     // A carried object is hidden behind its carrier wherever the occlusion test puts it (an object that
     // left the view is held too, but nothing carries it: it retires).
     hidden_[k] = object.carried_by != 0 ||
-                 occlusion_.occluded_share(object.model.cloud.positions, object.pose) >= options_.hidden_occluded_share;
+                 scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) >=
+                     options_.hidden_occluded_share;
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
   for (const std::int32_t id : frame_.retired) {
@@ -482,13 +479,26 @@ void ObjectManager::forget(std::int32_t id) {
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
 
-void ObjectManager::carry_hidden() {
+OcclusionTest& ObjectManager::scene_occlusion(const ColoredCloud& scene) {
+  if (!occlusion_scene_set_) {
+    occlusion_.set_scene(scene.positions);
+    occlusion_scene_set_ = true;
+  }
+  return occlusion_;
+}
+
+void ObjectManager::carry_hidden(const ColoredCloud& scene) {
   carry_objects_.clear();
   for (const auto& [id, object] : objects_) {
     if (!object.stale) carry_objects_.push_back({id, object.pose, object.held});
   }
   const auto touch = [&](std::int32_t a, std::int32_t b) { return touching(a, b, options_.carry.contact_distance); };
-  for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch)) {
+  const auto seen_through = [&](std::int32_t id, const Pose& pose) {
+    OcclusionTest& occlusion = scene_occlusion(scene);
+    occlusion.set_model(objects_.at(id).model.cloud.positions, pose);
+    return occlusion.seen_through_share();
+  };
+  for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch, seen_through)) {
     ManagedObject& object = objects_.at(carried.id);
     object.pose = carried.pose;
     object.velocity = pose_difference(previous_poses_.at(carried.id), carried.pose);
@@ -630,11 +640,7 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       }
     }
     if (apart) {
-      if (!occlusion_scene_set_) {
-        occlusion_.set_scene(scene.positions);
-        occlusion_scene_set_ = true;
-      }
-      apart = occlusion_.occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
+      apart = scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
     }
     streak = apart ? streak + 1 : 0;
     if (streak < o.split_frames) continue;

@@ -92,6 +92,22 @@ float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_point
   return occluded_share();
 }
 
+float OcclusionTest::seen_through_share() {
+  if (own_points_.empty()) return 0.f;
+  std::size_t seen_through = 0;
+  for (const auto& m : own_points_) {
+    if (!(m.z() > 0.f)) continue;
+    neighbours_.clear();
+    ray_hash_.radius_search(Eigen::Vector3f(m.x() / m.z(), m.y() / m.z(), 0.f), options_.window, neighbours_);
+    const float behind = m.z() + options_.depth_margin;
+    if (std::all_of(neighbours_.begin(), neighbours_.end(),
+                    [&](int i) { return ray_scene_[static_cast<std::size_t>(i)].z() > behind; })) {
+      ++seen_through;
+    }
+  }
+  return static_cast<float>(seen_through) / static_cast<float>(own_points_.size());
+}
+
 std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {
   if (own_points_.empty() || data.points.empty()) return 0;
   if (!model_rays_indexed_) {

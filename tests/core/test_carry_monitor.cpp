@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
+#include <string>
 #include <stdexcept>
 #include <vector>
 
@@ -154,6 +156,134 @@ TEST(CarryMonitor, TheLongestCompanionCarries) {
   EXPECT_EQ(carried[0].carrier, 2);
 }
 
+// A hand (id 2) that covers a box (id 1) before it touches it (`apart`): the box is hidden from frame 3,
+// where its tracker holds it at box_at_rest. The hand reaches it 1 cm a frame (frames 3-5), grips it
+// still (frames 6-9) and lifts it 1 cm and 2 degrees a frame from frame 10. A tall box (id 3) touches it
+// and stays still.
+struct CoveredGrip {
+  Pose box_at_rest = test::make_pose(Eigen::Vector3f(0.1f, 0.f, 1.f), Eigen::Vector3f::UnitZ(), 0.3f);
+  Pose tall_box = test::make_pose(Eigen::Vector3f(0.2f, 0.f, 1.f), Eigen::Vector3f::UnitZ(), 0.f);
+  Pose grip = test::make_pose(Eigen::Vector3f(0.1f, -0.1f, 0.95f), Eigen::Vector3f(0.2f, 1.f, 0.1f), 0.5f);
+  Pose hand_at(int frame) const {
+    Pose hand = grip;
+    if (frame < 6) hand.translation.y() -= 0.01f * static_cast<float>(6 - frame);
+    if (frame > 9) {
+      const auto lifted = static_cast<float>(frame - 9);
+      hand.translation += Eigen::Vector3f(0.f, -0.01f, -0.005f) * lifted;
+      hand.rotation =
+          Eigen::AngleAxisf(test::radians(2.f * lifted), Eigen::Vector3f(0.f, -1.f, -1.f).normalized()) * grip.rotation;
+    }
+    return hand;
+  }
+  // Where the box is: at rest until the lift, then moved with the hand.
+  Pose box_at(int frame) const {
+    if (frame <= 9) return box_at_rest;
+    return Pose::from_isometry(hand_at(frame).isometry() * hand_at(9).isometry().inverse() * box_at_rest.isometry());
+  }
+};
+
+CarryOptions seen_through_options() {
+  CarryOptions o = carry_options();
+  o.seen_through_share = 0.2f;
+  return o;
+}
+
+// The view of a box whose true pose is `truth`: half its model is seen through at a pose more than 1 cm
+// off it, nothing at the truth (there to see, or hidden behind the hand).
+float seen_through_off(const Pose& pose, const Pose& truth) {
+  return test::translation_error(pose, truth) > 0.01f ? 0.5f : 0.f;
+}
+
+TEST(CarryMonitor, ABoxCoveredBeforeItIsGrippedFollowsTheHandOnceItsHeldPoseIsSeenThrough) {
+  const CoveredGrip scene;
+  CarryMonitor monitor(seen_through_options());
+  const auto touch = [](std::int32_t a, std::int32_t b) { return std::min(a, b) == 1; };  // the box touches both
+  int frame = 0;
+  int asked = 0;
+  const CarryMonitor::SeenThroughTest seen_through = [&](std::int32_t id, const Pose& pose) {
+    EXPECT_EQ(id, 1);
+    ++asked;
+    return seen_through_off(pose, scene.box_at(frame));
+  };
+  for (; frame < 3; ++frame) {
+    const std::vector<CarryMonitor::Object> seen{
+        {1, scene.box_at(frame), false}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
+    EXPECT_TRUE(monitor.update(seen, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+  }
+  // Hidden and held where it rests; the hand moves off its grip from frame 10.
+  Pose held = scene.box_at_rest;
+  for (; frame < 16; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    asked = 0;
+    const std::vector<CarryMonitor::Object> objects{
+        {1, held, true}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
+    const auto& carried = monitor.update(objects, touch, seen_through);
+    if (frame < 12) {
+      EXPECT_TRUE(carried.empty());
+      // Asked only once the hand has moved min_motion (3 cm) off its grip, at frame 12 (the reach's
+      // frame 3 is 3 cm off where it stopped, but that was before the grip).
+      EXPECT_EQ(asked, 0);
+      continue;
+    }
+    ASSERT_EQ(carried.size(), 1u);
+    EXPECT_EQ(carried[0].id, 1);
+    EXPECT_EQ(carried[0].carrier, 2);
+    EXPECT_LT(test::translation_error(carried[0].pose, scene.box_at(frame)), 1e-4f);
+    EXPECT_LT(test::degrees(test::rotation_error(carried[0].pose, scene.box_at(frame))), 0.01f);
+    EXPECT_EQ(asked, frame == 12 ? 2 : 0);  // where it is held and where it would be carried; then no more
+    held = carried[0].pose;                 // where its tracker is moved
+  }
+  // Seen again: nothing carried, and its hidden watches are gone.
+  const std::vector<CarryMonitor::Object> seen{
+      {1, scene.box_at(16), false}, {2, scene.hand_at(16), false}, {3, scene.tall_box, false}};
+  EXPECT_TRUE(monitor.update(seen, touch, seen_through).empty());
+  const std::vector<CarryMonitor::Object> hidden{
+      {1, scene.box_at(16), true}, {2, scene.hand_at(20), false}, {3, scene.tall_box, false}};
+  EXPECT_TRUE(monitor.update(hidden, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+}
+
+TEST(CarryMonitor, ABoxStillWhereItIsHeldOrNotWhereTheHandWouldCarryItIsNotCarried) {
+  const CoveredGrip scene;
+  const auto touch = [](std::int32_t a, std::int32_t b) { return std::min(a, b) == 1; };
+  // Held at box_at_rest from frame 3 while the hand plays frames 3-15 and the box truly is at
+  // truth(frame); returns the frames anything was carried.
+  const auto carried_frames = [&](CarryMonitor& monitor, const std::function<Pose(int)>& truth,
+                                  const CarryMonitor::TouchTest& touches) {
+    int frames = 0;
+    for (int frame = 3; frame < 16; ++frame) {
+      const std::vector<CarryMonitor::Object> objects{
+          {1, scene.box_at_rest, true}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
+      const auto view = [&](std::int32_t, const Pose& pose) { return seen_through_off(pose, truth(frame)); };
+      frames += monitor.update(objects, touches, view).empty() ? 0 : 1;
+    }
+    return frames;
+  };
+  const auto lifted = [&](int frame) { return scene.box_at(frame); };
+  {  // the reference: lifted by the hand, carried from frame 12 (the hand 3 cm off its grip)
+    CarryMonitor monitor(seen_through_options());
+    EXPECT_EQ(carried_frames(monitor, lifted, touch), 4);
+  }
+  {  // the box stays where it is held (the hand leaves it)
+    CarryMonitor monitor(seen_through_options());
+    EXPECT_EQ(carried_frames(monitor, [&](int) { return scene.box_at_rest; }, touch), 0);
+  }
+  {  // its held pose had drifted 6 cm off the box, which stays: seen through where it is held and where
+     // the hand would carry it
+    CarryMonitor monitor(seen_through_options());
+    Pose truth = scene.box_at_rest;
+    truth.translation.x() += 0.06f;
+    EXPECT_EQ(carried_frames(monitor, [&](int) { return truth; }, touch), 0);
+  }
+  {  // the hand never touched it while it was hidden
+    CarryMonitor monitor(seen_through_options());
+    EXPECT_EQ(carried_frames(monitor, lifted, [](std::int32_t, std::int32_t) { return false; }), 0);
+  }
+  {  // off
+    CarryMonitor monitor(carry_options());
+    EXPECT_EQ(carried_frames(monitor, lifted, touch), 0);
+  }
+}
+
 TEST(CarryMonitor, InvalidOptionsThrow) {
   CarryOptions o;
   o.frames = -1;
@@ -169,6 +299,12 @@ TEST(CarryMonitor, InvalidOptionsThrow) {
   EXPECT_THROW(CarryMonitor{o}, std::invalid_argument);
   o = CarryOptions{};
   o.contact_distance = 0.5f;
+  EXPECT_THROW(CarryMonitor{o}, std::invalid_argument);
+  o = CarryOptions{};
+  o.seen_through_share = 1.5f;
+  EXPECT_THROW(CarryMonitor{o}, std::invalid_argument);
+  o = CarryOptions{};
+  o.carried_seen_through_share = -0.1f;
   EXPECT_THROW(CarryMonitor{o}, std::invalid_argument);
   EXPECT_NO_THROW(CarryMonitor{CarryOptions{}});
 }

@@ -664,6 +664,46 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
   }
 }
 
+// Two touching blocks born apart stay still while seen; then block 1's tracker holds it (its points
+// still in view: claimed by block 2, say) while block 2 stays (the grip), and from frame 7 both move 1 cm
+// a frame. No watch saw them move together, but once block 2 is min_motion (2 cm) off its grip, block
+// 1's held place is seen through (the scene moved off it) and where block 2 would carry it is not: it
+// is carried from then on. With seen_through_share 0 it waits where it was held.
+TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatGrippedIt) {
+  for (const bool on : {true, false}) {
+    SCOPED_TRACE(on ? "seen-through carry on" : "seen-through carry off");
+    BornTogether scene;
+    ObjectManagerOptions options;
+    options.model_update.alpha = 0.f;
+    options.carry.frames = 3;
+    options.carry.min_motion = 0.02f;
+    options.carry.seen_through_share = on ? 0.2f : 0.f;
+    options.hidden_occluded_share = 0.6f;
+    ObjectManager manager(options, std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    ASSERT_EQ(manager.objects().size(), 2u);
+    const Eigen::Vector3f still = Eigen::Vector3f::Zero();
+    for (int frame = 1; frame <= 3; ++frame) {
+      manager.process(scene.cloud, scene.cluster, moved(manager, still, std::vector<std::int32_t>{}));
+    }
+    const Pose held_at = manager.objects().at(1).pose;
+    Eigen::Vector3f offset = Eigen::Vector3f::Zero();
+    for (int frame = 4; frame <= 11; ++frame) {
+      SCOPED_TRACE("frame " + std::to_string(frame));
+      const Eigen::Vector3f step = frame >= 7 ? Eigen::Vector3f(0.01f, 0.f, 0.f) : still;
+      offset += step;
+      std::map<std::int32_t, ObjectEstimate> estimates = moved(manager, step, std::vector<std::int32_t>{2});
+      estimates.at(1).held = true;
+      manager.process(shifted(scene.cloud, offset), scene.cluster, estimates);
+      const ManagedObject& hidden = manager.objects().at(1);
+      const bool carried = on && frame >= 8;
+      EXPECT_EQ(hidden.carried_by, carried ? 2 : 0);
+      const Eigen::Vector3f expected = held_at.translation + (carried ? offset : still);
+      EXPECT_LT((hidden.pose.translation - expected).norm(), 1e-5f);
+    }
+  }
+}
+
 // Two touching blocks: when block 2's estimate moves, block 1's companion is block 2 with its step (a
 // translation: the same increment); block 2's is none (block 1 stayed). A step below min_motion, a held
 // block (its estimate is not seen) and contact_distance 0 give none.

@@ -88,6 +88,42 @@ TEST(OcclusionTest, MovesTheModelByThePose) {
   EXPECT_EQ(test.occluded_share(model, pose), 0.f);
 }
 
+TEST(OcclusionTest, TheSceneIsSeenThroughWhereTheModelIsNotAnyMore) {
+  // A two-sided model (front face at 1.00 m, back face at 1.04 m) whose front face the scene shows.
+  std::vector<Eigen::Vector3f> model = facing_patch(1.0f);
+  for (const auto& p : facing_patch(1.04f)) model.push_back(p);
+  OcclusionTest test;
+  test.set_scene(facing_patch(1.0f));
+  test.set_model(model, identity());
+  EXPECT_EQ(test.seen_through_share(), 0.f);  // its front face is there and covers its back face
+  // Behind a plate: hidden, not seen through.
+  test.set_scene(facing_patch(0.8f, 40));
+  test.set_model(model, identity());
+  EXPECT_EQ(test.seen_through_share(), 0.f);
+  // Gone: a wall 30 cm behind, or nothing at all (a removed table), is seen where it was.
+  test.set_scene(facing_patch(1.3f, 40));
+  test.set_model(model, identity());
+  EXPECT_EQ(test.seen_through_share(), 1.f);
+  test.set_scene({});
+  test.set_model(model, identity());
+  EXPECT_EQ(test.seen_through_share(), 1.f);
+  // Half of the front face there (x < 0): the other half of both faces is seen through.
+  std::vector<Eigen::Vector3f> half;
+  for (const auto& p : facing_patch(1.0f)) {
+    if (p.x() < 0.f) half.push_back(p);
+  }
+  test.set_scene(half);
+  test.set_model(model, identity());
+  EXPECT_GT(test.seen_through_share(), 0.4f);
+  EXPECT_LT(test.seen_through_share(), 0.55f);
+  // Within depth_margin behind a model point still counts as its own surface (a box 8 mm off).
+  test.set_scene(facing_patch(1.008f));
+  test.set_model(facing_patch(1.0f), identity());
+  EXPECT_EQ(test.seen_through_share(), 0.f);
+  test.set_model({}, identity());
+  EXPECT_EQ(test.seen_through_share(), 0.f);
+}
+
 HypothesisData as_data(const std::vector<Eigen::Vector3f>& points) {
   HypothesisData data;
   for (std::size_t k = 0; k < points.size(); ++k) {

@@ -68,6 +68,11 @@ README_TURNING_BOX_DEG = {"spin": (0.99, 3.5), "tumble": (1.47, 6.4)}
 # frame"): segmentation of frame 59, after the discovery confirmed over the first frames split them (without it
 # 85.14 % and 64.56 %, three and two objects).
 README_APART_CONFIRMED = {3: 0.9812, 5: 0.9816}
+# `apart` seed 1 whole (README "A box gripped while hidden, carried once its place is seen through"): the low box the
+# hand covers before it grips and lifts it is carried once its place is seen through. Segmentation 99.03 % (98.41 %
+# when it waited where it was held, retired and was found again), the low box (ground-truth id 4) estimated in every
+# frame (60 frames without an estimate before) and at most 45.5 mm off (212.8 mm before).
+README_APART_CARRIED = {"seed": 1, "segmentation": 0.9903, "low_box": 4, "translation_max_mm": 45.5}
 
 
 def run_inprocess(tmp: Path, scenario: str, *args: str, config: Path = REPO / "configs/default.yaml") -> dict:
@@ -188,6 +193,19 @@ class PipelineTest(unittest.TestCase):
                 self.assertEqual(int(last["frame"]), 59)
                 self.assertEqual(int(last["predicted_objects"]), 4)
                 self.assertGreaterEqual(float(last["accuracy"]), accuracy - 0.005)
+
+    def test_a_box_gripped_while_hidden_is_carried(self):
+        """`apart` seed 1 whole: the low box, hidden behind the hand before the hand grips and lifts it, is estimated
+        in every frame (carried, not retired), within 10 mm of the README's largest translation error, and the run's
+        segmentation is within 0.1 point of the README's figure."""
+        with tempfile.TemporaryDirectory() as tmp:
+            ev = run_inprocess(Path(tmp), "apart", config=seeded_config(Path(tmp), README_APART_CARRIED["seed"]))
+            print(json.dumps({k: ev[k] for k in ("segmentation", "pose_error", "tracks_lost")}, indent=1))
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_APART_CARRIED["segmentation"] - 0.001)
+            box = next(o for o in ev["objects"] if o["groundtruth_id"] == README_APART_CARRIED["low_box"])
+            self.assertFalse(box["lost"])
+            self.assertEqual(box["compared_frames"], box["groundtruth_last_frame"] - box["groundtruth_first_frame"] + 1)
+            self.assertLessEqual(box["pose_error"]["translation_max_mm"], README_APART_CARRIED["translation_max_mm"] + 10)
 
     def test_inprocess_static_scene(self):
         """The in-process pipeline (no LCM) finds and holds the three objects of the static scene."""

@@ -71,6 +71,12 @@ class RocTest(unittest.TestCase):
         except ModuleNotFoundError as e:
             self.skipTest(str(e))
 
+    def test_unestimated_frames_are_the_ground_truth_frames_no_estimate_was_compared_in(self):
+        objects = [{"groundtruth_first_frame": 0, "groundtruth_last_frame": 99, "compared_frames": 100},
+                   {"groundtruth_first_frame": 10, "groundtruth_last_frame": 59, "compared_frames": 35}]
+        self.assertEqual(self.module.unestimated_frames(objects), 15)
+        self.assertEqual(self.module.unestimated_frames(objects[:1]), 0)
+
     def test_object_errors_take_the_worst_objects_median_and_a_cans_observable_rotation(self):
         def obj(median, maximum, symmetric=False, frames=10, observable=(0.0, 0.0)):
             return {"symmetric": symmetric, "pose_error": {

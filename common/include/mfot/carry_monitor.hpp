@@ -19,6 +19,25 @@
 //      that motion (the longest such watch; ties: the lower id);
 //   3. its pose is that neighbour's pose composed with their relative pose of the object's last seen
 //      frame.
+// A hand may cover a box before it grips it (`apart`: the box is hidden from the frame the hand
+// comes within 3 cm, and the hand lifts it away 20 frames later): then no watch of step 1 saw them
+// move together. With seen_through_share > 0, steps 4-6 carry such an object too:
+//   4. for every hidden object and seen neighbour that touch at this frame's poses (the hidden one's
+//      is where it is held), a hidden watch keeps the object's pose in the neighbour's frame at the
+//      grip: the touching frame in which the neighbour moved least since the frame before (its
+//      translation over min_motion or its turn over min_turn_deg, the larger; ties: the later
+//      frame), where a hand that reached for the box stops before it lifts it; until it carries, it
+//      lasts until the object is seen again, touching or not (a box lifted away no longer touches
+//      the pose where it is held);
+//   5. a hidden object that step 2 does not carry, and of whose model the caller's test finds at
+//      least seen_through_share seen through where it is held (the view shows what lies behind it:
+//      it is not there any more), is carried by the neighbour of a hidden watch that moved
+//      min_motion or turned min_turn_deg since the grip (the one touching it longest; ties: the
+//      lower id), when at most carried_seen_through_share is seen through where that neighbour would
+//      have carried it (hidden behind it, or there to see: a neighbour that only brushed a box whose
+//      held pose had drifted off it would carry it into free space), from then until it is seen
+//      again;
+//   6. its pose is that neighbour's pose composed with their relative pose at the grip.
 // Deterministic, no draws. Non-copyable: it owns the watches.
 
 #include "mfot/types.hpp"
@@ -43,6 +62,8 @@ struct CarryOptions {
   float min_motion = 0.03f;         // metres (0, 1]
   float min_turn_deg = 10.f;        // (0, 180]
   float contact_distance = 0.02f;   // the caller's touch test: model points this close, metres (0, 0.1]
+  float seen_through_share = 0.f;   // [0, 1]; 0 = steps 4-6 off
+  float carried_seen_through_share = 0.05f;  // [0, 1]
   void validate() const;            // throws std::invalid_argument naming the field
 };
 
@@ -59,6 +80,8 @@ class CarryMonitor {
     Pose pose;            // where the carrier's motion put it
   };
   using TouchTest = std::function<bool(std::int32_t, std::int32_t)>;
+  // The share of an object's model seen through at a pose in this frame's view (OcclusionTest).
+  using SeenThroughTest = std::function<float(std::int32_t, const Pose&)>;
 
   explicit CarryMonitor(const CarryOptions& options = {});
   CarryMonitor(const CarryMonitor&) = delete;
@@ -67,9 +90,14 @@ class CarryMonitor {
   const CarryOptions& options() const { return options_; }
 
   // objects: every object with an estimate this frame, ids unique. touch(a, b): whether the two
-  // objects' models touch at their poses; asked once per pair of seen objects. Returns the carried
-  // hidden objects (ascending id); nothing while options().frames is 0.
-  const std::vector<Carried>& update(std::span<const Object> objects, const TouchTest& touch);
+  // objects' models touch at their poses; asked once per pair of seen objects (and, with
+  // options().seen_through_share > 0, of a hidden and a seen one). seen_through(id, pose): asked only
+  // with options().seen_through_share > 0, of a hidden object that step 2 does not carry but a hidden
+  // watch's neighbour could, at its pose and at where that neighbour would carry it; required then.
+  // Returns the carried hidden objects (ascending id); nothing while
+  // options().frames is 0.
+  const std::vector<Carried>& update(std::span<const Object> objects, const TouchTest& touch,
+                                     const SeenThroughTest& seen_through = {});
   // The object is gone (retired, joined): its watches go too.
   void forget(std::int32_t id);
 
@@ -82,10 +110,25 @@ class CarryMonitor {
     int frames = 0;
     bool neighbour_moved = false;
   };
+  // A hidden object's pose in a seen neighbour's frame at the grip (steps 4-6).
+  struct HiddenWatch {
+    Eigen::Isometry3f relative = Eigen::Isometry3f::Identity();
+    Pose neighbour_at_grip;
+    Pose neighbour_before;  // the neighbour's pose the last touching frame
+    float grip_step = 0.f;  // the neighbour's step at the grip (units of min_motion / min_turn_deg)
+    int frames = 0;         // frames touching
+    bool carrying = false;
+  };
   void observe(const Object& object, const Object& neighbour);
+  void observe_hidden(const Object& object, const Object& neighbour);
+  // Step 2: the carrier among objects of the hidden object (nullptr: none) and the relative pose it carries.
+  const Object* watched_carrier(const Object& object, std::span<const Object> objects, Eigen::Isometry3f& relative) const;
+  // Step 5's candidate neighbour (nullptr: none) and its hidden watch.
+  const Object* gripping_carrier(const Object& object, std::span<const Object> objects, HiddenWatch** watch);
 
   CarryOptions options_;
   std::map<std::pair<std::int32_t, std::int32_t>, Watch> watches_;  // (object, neighbour)
+  std::map<std::pair<std::int32_t, std::int32_t>, HiddenWatch> hidden_watches_;  // (hidden object, neighbour)
   std::vector<Carried> carried_;
 };
 

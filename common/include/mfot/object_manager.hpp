@@ -152,7 +152,9 @@ struct ObjectManagerFrame {
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
 //   1. take each object's estimate (an object without one keeps its pose and is marked stale);
 //      with carry.frames > 0, a hidden object that moved with a touching object before it was hidden
-//      follows that object's motion instead (CarryMonitor); with companion.contact_distance > 0,
+//      follows that object's motion instead (CarryMonitor), and with carry.seen_through_share > 0 so
+//      does one gripped while hidden whose place the scene shows empty (OcclusionTest's
+//      seen_through_share, on this frame's scene); with companion.contact_distance > 0,
 //      each object's companion is chosen (companion_motion.hpp);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
@@ -262,7 +264,9 @@ class ObjectManager {
   void rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points);
   void forget(std::int32_t id);  // an object that is gone: every per-object table
   // Step 1's carrying of hidden (held) objects.
-  void carry_hidden();
+  void carry_hidden(const ColoredCloud& scene);
+  // occlusion_ with this frame's scene set (indexed at the first call of a frame).
+  OcclusionTest& scene_occlusion(const ColoredCloud& scene);
   // Step 1's companions.
   void choose_companions();
   // Registers retired's model on the points (scene indices) of a re-identified object: on success

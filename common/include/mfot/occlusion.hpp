@@ -50,6 +50,11 @@ class OcclusionTest {
   // (own_surface_radius), in [0, 1]; 0 for an empty model.
   float occluded_share();
   float occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose);  // set_model + the above
+  // Share of the set model's points in front of the camera with no scene point on their viewing
+  // cone nearer than depth_margin behind them: the view sees past where the model would be (to
+  // what lies behind, or to nothing: a table that preprocessing removed), so the object is not
+  // there. In [0, 1]; 0 for an empty model. A model point's own near side covers its far side.
+  float seen_through_share();
   // The inverse question, asked of hypothesis data: removes from data the points that occlude the
   // set model — points at least depth_margin in front of a model point on their viewing cone and
   // farther than own_surface_radius from every model point (a hand in front of the object, not
