@@ -62,8 +62,8 @@ struct CarryOptions {
   float min_motion = 0.03f;         // metres (0, 1]
   float min_turn_deg = 10.f;        // (0, 180]
   float contact_distance = 0.02f;   // the caller's touch test: model points this close, metres (0, 0.1]
-  float seen_through_share = 0.f;   // [0, 1]; 0 = steps 4-6 off
-  float carried_seen_through_share = 0.05f;  // [0, 1]
+  float seen_through_share = 0.f;   // [0, 1] where it is held; 0 = steps 4-6 off
+  float carried_seen_through_share = 0.05f;  // [0, 1] where the neighbour would carry it
   void validate() const;            // throws std::invalid_argument naming the field
 };
 
@@ -94,8 +94,7 @@ class CarryMonitor {
   // options().seen_through_share > 0, of a hidden and a seen one). seen_through(id, pose): asked only
   // with options().seen_through_share > 0, of a hidden object that step 2 does not carry but a hidden
   // watch's neighbour could, at its pose and at where that neighbour would carry it; required then.
-  // Returns the carried hidden objects (ascending id); nothing while
-  // options().frames is 0.
+  // Returns the carried hidden objects (ascending id); nothing while options().frames is 0.
   const std::vector<Carried>& update(std::span<const Object> objects, const TouchTest& touch,
                                      const SeenThroughTest& seen_through = {});
   // The object is gone (retired, joined): its watches go too.
