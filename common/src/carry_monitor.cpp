@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <limits>
 #include <numbers>
+#include <tuple>
 
 namespace mfot {
 
@@ -33,9 +34,11 @@ const CarryOptions& validated(const CarryOptions& options) {
 
 float radians(float degrees) { return degrees * std::numbers::pi_v<float> / 180.f; }
 
-bool moved_at_least(const Pose& now, const Pose& before, float motion, float turn_deg) {
-  return (now.translation - before.translation).norm() >= motion ||
-         now.rotation.angularDistance(before.rotation) >= radians(turn_deg);
+// How far an object went from before to now, in units of min_motion and min_turn_deg (the larger of
+// the two): at least 1 = it moved.
+float motion_units(const Pose& now, const Pose& before, const CarryOptions& options) {
+  return std::max((now.translation - before.translation).norm() / options.min_motion,
+                  now.rotation.angularDistance(before.rotation) / radians(options.min_turn_deg));
 }
 
 }  // namespace
@@ -60,8 +63,7 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
   watch.last_seen = relative;
   watch.recent.push_back(relative);
   if (watch.recent.size() > static_cast<std::size_t>(options_.frames)) watch.recent.pop_front();
-  watch.neighbour_moved = watch.neighbour_moved || moved_at_least(neighbour.pose, watch.neighbour_at_start,
-                                                                  options_.min_motion, options_.min_turn_deg);
+  watch.neighbour_moved = watch.neighbour_moved || motion_units(neighbour.pose, watch.neighbour_at_start, options_) >= 1.f;
 }
 
 void CarryMonitor::observe_hidden(const Object& object, const Object& neighbour) {
@@ -69,12 +71,9 @@ void CarryMonitor::observe_hidden(const Object& object, const Object& neighbour)
   HiddenWatch& watch = it->second;
   ++watch.frames;
   if (watch.carrying) return;
-  // The frame's step in units of min_motion / min_turn_deg: the least since the hidden watch began is the grip.
-  const float step = first ? std::numeric_limits<float>::infinity()
-                           : std::max((neighbour.pose.translation - watch.neighbour_before.translation).norm() /
-                                          options_.min_motion,
-                                      neighbour.pose.rotation.angularDistance(watch.neighbour_before.rotation) /
-                                          radians(options_.min_turn_deg));
+  // The neighbour's step since the last touching frame: the least since the hidden watch began is the grip.
+  const float step =
+      first ? std::numeric_limits<float>::infinity() : motion_units(neighbour.pose, watch.neighbour_before, options_);
   watch.neighbour_before = neighbour.pose;
   if (!first && step > watch.grip_step) return;
   watch.grip_step = step;
@@ -86,13 +85,14 @@ const CarryMonitor::Object* CarryMonitor::watched_carrier(const Object& object, 
                                                           Eigen::Isometry3f& relative) const {
   const Object* carrier = nullptr;
   const Watch* carrier_watch = nullptr;
+  std::tuple<int, std::int32_t> best;  // the longest watch; ties: the lower id
   for (const Object& neighbour : objects) {
     if (neighbour.hidden || neighbour.id == object.id) continue;
     const auto it = watches_.find({object.id, neighbour.id});
     if (it == watches_.end() || it->second.frames < options_.frames || !it->second.neighbour_moved) continue;
-    const bool better = carrier_watch == nullptr || it->second.frames > carrier_watch->frames ||
-                        (it->second.frames == carrier_watch->frames && neighbour.id < carrier->id);
-    if (better) {
+    const std::tuple<int, std::int32_t> rank{it->second.frames, -neighbour.id};
+    if (carrier == nullptr || rank > best) {
+      best = rank;
       carrier = &neighbour;
       carrier_watch = &it->second;
     }
@@ -105,21 +105,18 @@ const CarryMonitor::Object* CarryMonitor::gripping_carrier(const Object& object,
                                                            HiddenWatch** watch) {
   const Object* carrier = nullptr;
   *watch = nullptr;
+  // A watch already carrying wins (the object goes on with the neighbour that took it), then the
+  // longest; ties: the lower id.
+  std::tuple<bool, int, std::int32_t> best;
   for (const Object& neighbour : objects) {
     if (neighbour.hidden || neighbour.id == object.id) continue;
     const auto it = hidden_watches_.find({object.id, neighbour.id});
     if (it == hidden_watches_.end()) continue;
     HiddenWatch& candidate = it->second;
-    if (!candidate.carrying && !moved_at_least(neighbour.pose, candidate.neighbour_at_grip, options_.min_motion,
-                                               options_.min_turn_deg)) {
-      continue;
-    }
-    // A watch already carrying wins: the object goes on with the neighbour that took it.
-    const bool better = *watch == nullptr || candidate.carrying > (*watch)->carrying ||
-                        (candidate.carrying == (*watch)->carrying &&
-                         (candidate.frames > (*watch)->frames ||
-                          (candidate.frames == (*watch)->frames && neighbour.id < carrier->id)));
-    if (better) {
+    if (!candidate.carrying && motion_units(neighbour.pose, candidate.neighbour_at_grip, options_) < 1.f) continue;
+    const std::tuple<bool, int, std::int32_t> rank{candidate.carrying, candidate.frames, -neighbour.id};
+    if (carrier == nullptr || rank > best) {
+      best = rank;
       carrier = &neighbour;
       *watch = &candidate;
     }

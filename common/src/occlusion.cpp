@@ -13,6 +13,9 @@ const OcclusionOptions& validated(const OcclusionOptions& options) {
   return options;
 }
 
+// A point's camera ray as the cone indexes store it: (x/z, y/z, 0).
+Eigen::Vector3f ray(const Eigen::Vector3f& p) { return {p.x() / p.z(), p.y() / p.z(), 0.f}; }
+
 }  // namespace
 
 void OcclusionOptions::validate() const {
@@ -43,7 +46,7 @@ void OcclusionTest::index_rays(std::span<const Eigen::Vector3f> points, std::vec
   sources.clear();
   for (const auto& p : points) {
     if (!(p.z() > 0.f)) continue;
-    rays.emplace_back(p.x() / p.z(), p.y() / p.z(), 0.f);
+    rays.push_back(ray(p));
     sources.push_back(p);
   }
   hash.build(rays);
@@ -53,13 +56,16 @@ void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
   index_rays(scene_points, ray_points_, ray_scene_, ray_hash_);
 }
 
+void OcclusionTest::search_cone(const SpatialHash& hash, const Eigen::Vector3f& point) {
+  neighbours_.clear();
+  hash.radius_search(ray(point), options_.window, neighbours_);
+}
+
 bool OcclusionTest::occluded(const Eigen::Vector3f& point) { return occluded_by_other(point, nullptr); }
 
 bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own) {
   if (!(point.z() > 0.f)) return true;
-  neighbours_.clear();
-  ray_hash_.radius_search(Eigen::Vector3f(point.x() / point.z(), point.y() / point.z(), 0.f), options_.window,
-                          neighbours_);
+  search_cone(ray_hash_, point);
   const float in_front = point.z() - options_.depth_margin;
   return std::any_of(neighbours_.begin(), neighbours_.end(), [&](int i) {
     const auto k = static_cast<std::size_t>(i);
@@ -97,8 +103,7 @@ float OcclusionTest::seen_through_share() {
   std::size_t seen_through = 0;
   for (const auto& m : own_points_) {
     if (!(m.z() > 0.f)) continue;
-    neighbours_.clear();
-    ray_hash_.radius_search(Eigen::Vector3f(m.x() / m.z(), m.y() / m.z(), 0.f), options_.window, neighbours_);
+    search_cone(ray_hash_, m);
     const float behind = m.z() + options_.depth_margin;
     if (std::all_of(neighbours_.begin(), neighbours_.end(),
                     [&](int i) { return ray_scene_[static_cast<std::size_t>(i)].z() > behind; })) {
@@ -117,8 +122,7 @@ std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {
   const auto occludes = [&](const Eigen::Vector3f& p) {
     if (!(p.z() > 0.f)) return false;
     if (options_.own_surface_radius > 0.f && own_hash_.nearest(p, options_.own_surface_radius) >= 0) return false;
-    neighbours_.clear();
-    model_ray_hash_.radius_search(Eigen::Vector3f(p.x() / p.z(), p.y() / p.z(), 0.f), options_.window, neighbours_);
+    search_cone(model_ray_hash_, p);
     const float behind = p.z() + options_.depth_margin;
     return std::any_of(neighbours_.begin(), neighbours_.end(),
                        [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });

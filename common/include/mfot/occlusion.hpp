@@ -66,6 +66,8 @@ class OcclusionTest {
   // A cone index: (x/z, y/z, 0) of the points with z > 0 in hash, each with its point in sources.
   static void index_rays(std::span<const Eigen::Vector3f> points, std::vector<Eigen::Vector3f>& rays,
                          std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
+  // neighbours_ = the points of a cone index (hash) within window of point's ray (point at z > 0).
+  void search_cone(const SpatialHash& hash, const Eigen::Vector3f& point);
   // occluded(), ignoring scene points within own_surface_radius of own_ (when given).
   bool occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own);
 
