@@ -122,6 +122,17 @@ double SegmentationAccuracy::accuracy() const {
   return static_cast<double>(correct) / static_cast<double>(total_points_);
 }
 
+std::vector<SegmentationAccuracy::Overlap> SegmentationAccuracy::overlaps() const {
+  std::map<Pair, std::size_t> frames;
+  for (const auto& pairs : frame_pairs_) {
+    for (const auto& entry : pairs) ++frames[entry.first];
+  }
+  std::vector<Overlap> result;
+  result.reserve(overlap_.size());
+  for (const auto& [pair, count] : overlap_) result.push_back({pair.first, pair.second, count, frames.at(pair)});
+  return result;
+}
+
 std::vector<double> SegmentationAccuracy::frame_accuracies() const {
   const auto map = mapping();
   std::vector<double> result;

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <numbers>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 namespace mfot {
@@ -159,6 +160,26 @@ TEST(SegmentationAccuracy, KnownMislabelling) {
   ASSERT_EQ(per_frame.size(), 2u);
   EXPECT_DOUBLE_EQ(per_frame[0], 0.7);
   EXPECT_DOUBLE_EQ(per_frame[1], 0.5);
+}
+
+// Where the points of KnownMislabelling went: every (predicted, ground truth) pair with its points
+// over both frames and the frames it occurs in.
+TEST(SegmentationAccuracy, OverlapsCountEveryPairsPointsAndFrames) {
+  SegmentationAccuracy acc;
+  acc.add_frame(std::vector<std::int32_t>{0, 0, 5, 5, 5, 5, 8, 8, 8, 0}, std::vector<std::int32_t>{0, 0, 0, 1, 1, 1, 1, 2, 2, 2});
+  acc.add_frame(std::vector<std::int32_t>{8, 8, 5, 8, 8, 8}, std::vector<std::int32_t>{1, 1, 1, 2, 2, 0});
+  const auto overlaps = acc.overlaps();
+  std::vector<std::tuple<std::int32_t, std::int32_t, std::uint64_t, std::size_t>> got;
+  std::uint64_t total = 0;
+  for (const auto& o : overlaps) {
+    got.emplace_back(o.predicted, o.ground_truth, o.points, o.frames);
+    total += o.points;
+  }
+  const std::vector<std::tuple<std::int32_t, std::int32_t, std::uint64_t, std::size_t>> expected{
+      {0, 0, 2, 1}, {0, 2, 1, 1}, {5, 0, 1, 1}, {5, 1, 4, 2}, {8, 0, 1, 1}, {8, 1, 3, 2}, {8, 2, 4, 2}};
+  EXPECT_EQ(got, expected);
+  EXPECT_EQ(total, acc.points());
+  EXPECT_TRUE(SegmentationAccuracy().overlaps().empty());
 }
 
 TEST(SegmentationAccuracy, OneToOneLeavesExtraPredictionsWrong) {

@@ -77,6 +77,24 @@ class RocTest(unittest.TestCase):
         self.assertEqual(self.module.unestimated_frames(objects), 15)
         self.assertEqual(self.module.unestimated_frames(objects[:1]), 0)
 
+    def test_segmentation_losses_are_the_largest_shares_given_to_the_wrong_object(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "run_segments.csv"
+            path.write_text(
+                "groundtruth_id,predicted_id,mapped_groundtruth_id,points,share_of_points,share_of_groundtruth,frames\n"
+                "0,5,101,40,0.002,1,3\n"      # background given to the hand's id
+                "1,2,1,9000,0.45,0.9,100\n"   # right
+                "1,3,4,800,0.04,0.08,100\n"   # a seam: object 1's points under object 4's id
+                "1,0,0,200,0.01,0.02,20\n"    # left unlabelled
+                "4,3,4,9000,0.45,1,100\n"     # right
+                "101,7,-1,100,0.005,0.1,4\n")  # a hand's piece under an unmatched id
+            losses = self.module.segmentation_losses(path)
+            self.assertEqual([(x["groundtruth_id"], x["predicted_id"]) for x in losses], [(1, 3), (1, 0), (101, 7)])
+            self.assertEqual(self.module.describe_loss(losses[0]), "object 1 to object 4's id: 4.00 points in 100 frames")
+            self.assertEqual(self.module.describe_loss(losses[1]), "object 1 to no object: 1.00 points in 20 frames")
+            self.assertEqual(self.module.describe_loss(losses[2]), "object 101 to an unmatched id: 0.50 points in 4 frames")
+            self.assertEqual(len(self.module.segmentation_losses(path, count=10)), 4)
+
     def test_object_errors_take_the_worst_objects_median_and_a_cans_observable_rotation(self):
         def obj(median, maximum, symmetric=False, frames=10, observable=(0.0, 0.0)):
             return {"symmetric": symmetric, "pose_error": {

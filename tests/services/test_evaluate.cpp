@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +17,8 @@
 #include <functional>
 #include <numbers>
 #include <random>
+#include <sstream>
+#include <tuple>
 
 namespace {
 
@@ -247,6 +250,40 @@ TEST(Evaluate, KnownPerturbationGivesExpectedNumbers) {
   EXPECT_TRUE(o3.lost);
   EXPECT_TRUE(o3.frames.empty());
   EXPECT_EQ(run.tracks_lost, 2u);
+
+  // Where the points went: the 10 pixels of object 1 given to object 2's prediction in one frame, the
+  // 6 background pixels given to object 1's, object 3 never labelled; largest first per object.
+  const fs::path out = tmp.path() / "out";
+  fs::create_directories(out);
+  write_run_tables(out, run);
+  std::ifstream segments(out / "perturbed_segments.csv");
+  std::string line;
+  std::getline(segments, line);
+  EXPECT_EQ(line, "groundtruth_id,predicted_id,mapped_groundtruth_id,points,share_of_points,share_of_groundtruth,frames");
+  // (ground truth, predicted, mapped, points, frames) of each row; the shares are over all scene points (188 a
+  // frame, and the 6 of frame 5) and over the ground-truth id's.
+  std::vector<std::tuple<int, int, int, long, int>> rows;
+  std::vector<std::pair<double, double>> shares;
+  while (std::getline(segments, line)) {
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    int gt = 0, predicted = 0, mapped = 0, frames = 0;
+    long n = 0;
+    double of_points = 0.0, of_groundtruth = 0.0;
+    fields >> gt >> predicted >> mapped >> n >> of_points >> of_groundtruth >> frames;
+    rows.emplace_back(gt, predicted, mapped, n, frames);
+    shares.emplace_back(of_points, of_groundtruth);
+  }
+  const long all = kFrames * (64 + 100 + 24) + 6;
+  EXPECT_EQ(rows, (std::vector<std::tuple<int, int, int, long, int>>{{0, 7, 1, 6, 1},
+                                                                     {1, 7, 1, kFrames * 64 - 10, kFrames},
+                                                                     {1, 9, 2, 10, 1},
+                                                                     {2, 9, 2, kFrames * 100, kFrames},
+                                                                     {3, 0, 0, kFrames * 24, kFrames}}));
+  ASSERT_EQ(shares.size(), 5u);
+  EXPECT_NEAR(shares[2].first, 10.0 / all, 1e-6);
+  EXPECT_NEAR(shares[2].second, 10.0 / (kFrames * 64), 1e-6);
+  EXPECT_NEAR(shares[0].second, 1.0, 1e-9);
 }
 
 TEST(Evaluate, DepthImagesLeaveUnmeasuredPixelsOut) {

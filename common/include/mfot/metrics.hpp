@@ -75,6 +75,15 @@ class FittingDistanceEvaluator {
 class SegmentationAccuracy {
  public:
   static constexpr std::int32_t kUnmatched = -1;
+  // Points one predicted id gave one ground-truth id over the sequence, and in how many frames:
+  // where the wrong points went (a seam between touching objects persists in every frame, a
+  // passing mix-up in a few).
+  struct Overlap {
+    std::int32_t predicted = 0;
+    std::int32_t ground_truth = 0;
+    std::uint64_t points = 0;
+    std::size_t frames = 0;
+  };
 
   // One frame's labels, point by point (same size).
   void add_frame(std::span<const std::int32_t> predicted, std::span<const std::int32_t> ground_truth);
@@ -84,6 +93,7 @@ class SegmentationAccuracy {
   double accuracy() const;                            // 1 for an empty sequence
   std::vector<double> frame_accuracies() const;       // with the sequence-wide mapping
   std::map<std::int32_t, std::int32_t> mapping() const;  // predicted id -> ground-truth id
+  std::vector<Overlap> overlaps() const;              // every pair seen, by (predicted, ground truth)
 
  private:
   using Pair = std::pair<std::int32_t, std::int32_t>;  // (predicted, ground truth)

@@ -283,6 +283,7 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
   result.pixels = pixel_accuracy.points();
   result.pixel_accuracy = pixel_accuracy.accuracy();
   result.mapping = accuracy.mapping();
+  result.overlaps = accuracy.overlaps();
   const auto frame_accuracy = accuracy.frame_accuracies();
 
   // Per-frame table: every frame the run has labels, poses or fitting for.

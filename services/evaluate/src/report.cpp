@@ -1,10 +1,13 @@
 #include "mfot/evaluate/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <sstream>
+#include <tuple>
 
 namespace mfot::evaluate {
 
@@ -180,6 +183,25 @@ void write_run_tables(const fs::path& out_dir, const RunResult& run) {
     }
   }
   close_output(errors, errors_path);
+
+  const fs::path segments_path = out_dir / (run.name + "_segments.csv");
+  auto segments = open_output(segments_path);
+  segments << "groundtruth_id,predicted_id,mapped_groundtruth_id,points,share_of_points,share_of_groundtruth,frames\n";
+  std::map<std::int32_t, std::uint64_t> groundtruth_points;
+  for (const auto& o : run.overlaps) groundtruth_points[o.ground_truth] += o.points;
+  std::vector<SegmentationAccuracy::Overlap> rows = run.overlaps;
+  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.ground_truth, b.points, a.predicted) < std::tie(b.ground_truth, a.points, b.predicted);
+  });
+  for (const auto& o : rows) {
+    const auto mapped = run.mapping.find(o.predicted);
+    segments << o.ground_truth << ',' << o.predicted << ','
+             << (mapped == run.mapping.end() ? SegmentationAccuracy::kUnmatched : mapped->second) << ',' << o.points
+             << ',' << static_cast<double>(o.points) / static_cast<double>(std::max<std::size_t>(run.points, 1)) << ','
+             << static_cast<double>(o.points) / static_cast<double>(groundtruth_points.at(o.ground_truth)) << ','
+             << o.frames << '\n';
+  }
+  close_output(segments, segments_path);
 }
 
 void write_summary_json(const fs::path& file, const std::vector<RunResult>& runs, const EvaluationOptions& options) {

@@ -130,6 +130,7 @@ struct RunResult {
   std::size_t pixels = 0;          // measured pixels evaluated over all frames
   double pixel_accuracy = 1.0;     // over all measured pixels, its own one-to-one mapping
   std::map<std::int32_t, std::int32_t> mapping;  // predicted id -> gt id (SegmentationAccuracy::kUnmatched)
+  std::vector<SegmentationAccuracy::Overlap> overlaps;  // scene points per (predicted, gt) pair over all frames
   std::string depth_mask;                        // directory of the depth images used, or "none"
   std::vector<ObjectResult> objects;             // one per ground-truth id with points (step 4)
   std::size_t tracks_lost = 0;                   // lost objects that are not hands

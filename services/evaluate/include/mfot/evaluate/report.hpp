@@ -6,6 +6,10 @@
 //   NAME_frames.csv       frame,segmented,points,accuracy,fitting_mean_m,predicted_objects
 //   NAME_objects.csv      one row per ground-truth object: mapping, lost, pose error summary
 //   NAME_pose_errors.csv  frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,stale
+//   NAME_segments.csv     where the scene points went: one row per (ground-truth id, predicted id) pair
+//                         seen, with the ground-truth id the predicted one maps to, the points, their
+//                         share of all scene points and of the ground-truth id's, and the frames it
+//                         occurs in (a seam between touching objects shows in every frame)
 // and once: summary.json (every number of the table and more) and plots.json.
 
 #include "mfot/evaluate/evaluation.hpp"
