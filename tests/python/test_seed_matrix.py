@@ -90,9 +90,9 @@ class RocTest(unittest.TestCase):
                 "101,7,-1,100,0.005,0.1,4\n")  # a hand's piece under an unmatched id
             losses = self.module.segmentation_losses(path)
             self.assertEqual([(x["groundtruth_id"], x["predicted_id"]) for x in losses], [(1, 3), (1, 0), (101, 7)])
-            self.assertEqual(self.module.describe_loss(losses[0]), "object 1 to object 4's id: 4.00 points in 100 frames")
-            self.assertEqual(self.module.describe_loss(losses[1]), "object 1 to no object: 1.00 points in 20 frames")
-            self.assertEqual(self.module.describe_loss(losses[2]), "object 101 to an unmatched id: 0.50 points in 4 frames")
+            self.assertEqual(self.module.describe_loss(losses[0]), "object 1 to object 4's id: 4.00 % of the scene points, in 100 frames")
+            self.assertEqual(self.module.describe_loss(losses[1]), "object 1 to no object: 1.00 % of the scene points, in 20 frames")
+            self.assertEqual(self.module.describe_loss(losses[2]), "object 101 to an unmatched id: 0.50 % of the scene points, in 4 frames")
             self.assertEqual(len(self.module.segmentation_losses(path, count=10)), 4)
 
     def test_object_errors_take_the_worst_objects_median_and_a_cans_observable_rotation(self):
