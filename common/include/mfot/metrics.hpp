@@ -76,7 +76,7 @@ class SegmentationAccuracy {
  public:
   static constexpr std::int32_t kUnmatched = -1;
   // Points one predicted id gave one ground-truth id over the sequence, and in how many frames:
-  // where the wrong points went (a seam between touching objects persists in every frame, a
+  // where the wrong points went (a seam between touching objects persists in most frames, a
   // passing mix-up in a few).
   struct Overlap {
     std::int32_t predicted = 0;

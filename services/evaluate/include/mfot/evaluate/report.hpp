@@ -9,7 +9,7 @@
 //   NAME_segments.csv     where the scene points went: one row per (ground-truth id, predicted id) pair
 //                         seen, with the ground-truth id the predicted one maps to, the points, their
 //                         share of all scene points and of the ground-truth id's, and the frames it
-//                         occurs in (a seam between touching objects shows in every frame)
+//                         occurs in (a seam between touching objects shows in most frames)
 // and once: summary.json (every number of the table and more) and plots.json.
 
 #include "mfot/evaluate/evaluation.hpp"
