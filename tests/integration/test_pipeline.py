@@ -51,8 +51,8 @@ def results(log: Path, types) -> dict[str, list[bytes]]:
 README_SEGMENTATION = {"stack": 0.9968, "contact": 0.9971, "rotate": 0.9989}
 # The median rotation error of the box the hand grips and turns in `rotate` (README "Measured": 0.27 deg with ICP on
 # 2000 points, 0.45 deg with the box predicted with the hand's motion, 0.52 deg with every estimate refined on the
-# model's surface and the box carried with the hand while hidden, 1.4 deg with isolated objects alone refined, 11 deg on scene seed 3 before the trackers left the
-# points other objects claim out).
+# model's surface and the box carried with the hand while hidden, 1.4 deg with isolated objects alone refined, 11 deg
+# on scene seed 3 before the trackers left the points other objects claim out).
 README_ROTATED_BOX_MEDIAN_DEG = 0.27
 # ... and its mean and largest, which the frames hidden behind the hand dominate (1.00 / 6.2 deg with ICP on 2000
 # points: the hand that carries it is followed in roll; 1.68 / 19.5 deg on 200 points, 1.72 / 19.5 with the carry watch

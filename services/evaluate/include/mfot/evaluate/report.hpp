@@ -5,7 +5,7 @@
 // Files written into the output directory, per run NAME:
 //   NAME_frames.csv       frame,segmented,points,accuracy,fitting_mean_m,predicted_objects
 //   NAME_objects.csv      one row per ground-truth object: mapping, lost, pose error summary
-//   NAME_pose_errors.csv  frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,stale
+//   NAME_pose_errors.csv  frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,observable_rotation_deg
 //   NAME_segments.csv     where the scene points went: one row per (ground-truth id, predicted id) pair
 //                         seen, with the ground-truth id the predicted one maps to, the points, their
 //                         share of all scene points and of the ground-truth id's, and the frames it
