@@ -43,6 +43,7 @@ void DiscoveryOptions::validate() const {
     throw std::invalid_argument("DiscoveryOptions.confirm_max_motion must be in (0, 1] m, got " +
                                 std::to_string(confirm_max_motion));
   }
+  boundary.validate();
 }
 
 DiscoveryMethod parse_discovery_method(const std::string& name) {

@@ -70,6 +70,7 @@ void ObjectManagerOptions::validate() const {
 ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_ptr<ObjectDiscovery> discovery)
     : options_((options.validate(), options)),
       discovery_(std::move(discovery)),
+      part_boundary_(options.discovery.boundary),
       segmenter_(options.segmentation),
       detector_(options.new_objects),
       support_(options.support),
@@ -787,6 +788,7 @@ void ObjectManager::discover_parts(const ColoredCloud& scene, std::span<const in
     part_colors_.push_back(scene.colors[static_cast<std::size_t>(i)]);
   }
   const int count = discovery_->split(part_positions_, part_colors_, part_of_point_);
+  part_boundary_.refine(part_positions_, part_colors_, part_of_point_);
   parts.assign(static_cast<std::size_t>(std::max(count, 1)), {});
   for (std::size_t k = 0; k < points.size(); ++k) parts[static_cast<std::size_t>(part_of_point_[k])].push_back(points[k]);
   std::erase_if(parts, [&](const std::vector<int>& part) { return part.size() < options_.min_object_points; });

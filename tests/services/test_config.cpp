@@ -260,6 +260,16 @@ TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
                   "confirm_votes");
 }
 
+TEST(Config, DiscoveryBoundaryKeysReachTheManager) {
+  const MergerConfig m = load_merger_config(
+      with_defaults("merger:\n  discovery:\n    boundary_radius: 0.02\n    boundary_color_ratio: 8\n"));
+  EXPECT_FLOAT_EQ(m.manager.discovery.boundary.radius, 0.02f);
+  EXPECT_FLOAT_EQ(m.manager.discovery.boundary.min_color_ratio, 8.f);
+  for (const std::string key : {"boundary_radius: -0.01", "boundary_radius: 0.5", "boundary_color_ratio: 1"}) {
+    expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
+  }
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
   EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
 }

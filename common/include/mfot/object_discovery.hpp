@@ -8,6 +8,7 @@
 // cheap Euclidean one and discovery runs only at birth and, to confirm it, on the first
 // confirm_frames frames of the objects born from a cluster.
 
+#include "mfot/part_boundary.hpp"
 #include "mfot/types.hpp"
 
 #include <Eigen/Core>
@@ -52,6 +53,9 @@ struct DiscoveryOptions {
   int confirm_frames = 0;
   int confirm_votes = 3;
   float confirm_max_motion = 0.01f;
+  // Point-level boundaries between the parts by colour (part_boundary.hpp), applied to every split
+  // by the ObjectManager; radius 0 = off (parts end at supervoxel borders).
+  PartBoundaryOptions boundary;
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;

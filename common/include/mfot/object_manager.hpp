@@ -279,6 +279,7 @@ class ObjectManager {
   std::vector<Eigen::Vector3f> part_positions_;
   std::vector<Rgb8> part_colors_;
   std::vector<int> part_of_point_;
+  PartBoundaryRefiner part_boundary_;
   Segmenter segmenter_;
   NewObjectDetector detector_;
   SupportMonitor support_;
