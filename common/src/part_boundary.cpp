@@ -129,7 +129,8 @@ bool PartBoundaryRefiner::continues_face_of(std::span<const Eigen::Vector3f> pos
   const int count = patch_offsets_[i + 1] - patch_offsets_[i];
   if (count < 3) return false;
   for (int k = patch_offsets_[i]; k < patch_offsets_[i + 1]; ++k) {
-    const Eigen::Vector3d p = positions[static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)])].cast<double>();
+    const auto j = static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)]);
+    const Eigen::Vector3d p = positions[j].cast<double>();
     sum += p;
     outer += p * p.transpose();
   }
@@ -206,7 +207,9 @@ std::size_t PartBoundaryRefiner::refine(std::span<const Eigen::Vector3f> positio
   }
   log_density_.resize(n * part_count);
   for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t p = 0; p < part_count; ++p) log_density_[i * part_count + p] = std::log(density(models[p], colors[i]));
+    for (std::size_t p = 0; p < part_count; ++p) {
+      log_density_[i * part_count + p] = std::log(density(models[p], colors[i]));
+    }
   }
 
   // 4-5. moves, pass by pass
