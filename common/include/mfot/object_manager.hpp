@@ -169,7 +169,8 @@ struct ObjectManagerFrame {
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]) and not
 //      lying mostly inside a held object (held_birth_margin: its own points); with a
 //      discovery (object_discovery.hpp) such a cluster's unexplained points are first split into
-//      their locally convex parts, each an object (touching and stacked objects apart); a new
+//      their locally convex parts, each an object (touching and stacked objects apart), the parts'
+//      boundaries then drawn point by point by colour (part_boundary.hpp); a new
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
 //      back, and with reidentify_register its remembered model is registered on the new points
