@@ -68,6 +68,9 @@ README_TURNING_BOX_DEG = {"spin": (0.99, 3.5), "tumble": (1.47, 6.4)}
 # frame"): segmentation of frame 59, after the discovery confirmed over the first frames split them (without it
 # 85.14 % and 64.56 %, three and two objects).
 README_APART_CONFIRMED = {3: 0.9812, 5: 0.9816}
+# `apart` seed 1, frame 39 (README "Point-level boundaries between discovered parts"): the low box's front face, 5 mm
+# behind the tall box's, no longer leaves a strip in the tall box (97.37 % with merger.discovery.boundary_radius 0).
+README_APART_FLUSH_SEAM = {"seed": 1, "frame": 39, "accuracy": 0.9899, "without": 0.9737}
 # `apart` seed 1 whole with merger.carry.seen_through_share 0.2 (README "A box gripped while hidden, carried once its
 # place is seen through"; off by default): the low box the hand covers before it grips and lifts it is carried once its
 # place is seen through. Segmentation 99.03 % (98.41 % when it waits where it was held, retires and is found again),
@@ -197,6 +200,27 @@ class PipelineTest(unittest.TestCase):
                 self.assertEqual(int(last["frame"]), 59)
                 self.assertEqual(int(last["predicted_objects"]), 4)
                 self.assertGreaterEqual(float(last["accuracy"]), accuracy - 0.005)
+
+    def test_flush_faces_drawn_apart(self):
+        """`apart` seed 1's first 40 frames: with the point-level boundaries between discovered parts, frame 39's
+        segmentation is within half a point of the README's figure, and above the figure without them."""
+        import yaml
+        seam = README_APART_FLUSH_SEAM
+        with tempfile.TemporaryDirectory() as tmp:
+            config = seeded_config(Path(tmp), seam["seed"])
+            ev = run_inprocess(Path(tmp), "apart", "--max-frames", str(seam["frame"] + 1), config=config)
+            last = ev["frames"][-1]
+            self.assertEqual(int(last["frame"]), seam["frame"])
+            self.assertEqual(int(last["predicted_objects"]), 4)
+            self.assertGreaterEqual(float(last["accuracy"]), seam["accuracy"] - 0.005)
+            self.assertGreater(float(last["accuracy"]), seam["without"] + 0.005)
+        with tempfile.TemporaryDirectory() as tmp:
+            off = yaml.safe_load(seeded_config(Path(tmp), seam["seed"]).read_text())
+            off["merger"]["discovery"]["boundary_radius"] = 0
+            path = Path(tmp) / "off.yaml"
+            path.write_text(yaml.safe_dump(off))
+            ev = run_inprocess(Path(tmp), "apart", "--max-frames", str(seam["frame"] + 1), config=path)
+            self.assertAlmostEqual(float(ev["frames"][-1]["accuracy"]), seam["without"], delta=0.005)
 
     def test_a_box_gripped_while_hidden_is_carried(self):
         """`apart` seed 1 whole with the seen-through carry on: the low box, hidden behind the hand before the hand
