@@ -29,6 +29,7 @@ void JoinSplitOptions::validate() const {
   in("split_min_share", split_min_share, 0, 0.5, true);
   in("split_min_gap", split_min_gap, 0, 1, false);
   in("split_max_occluded", split_max_occluded, 0, 1, false);
+  in("split_min_departure", split_min_departure, 0, 1, false);
 }
 
 void ObjectManagerOptions::validate() const {
@@ -476,6 +477,7 @@ void ObjectManager::forget(std::int32_t id) {
   first_seen_.erase(id);
   birth_.erase(id);
   split_streak_.erase(id);
+  split_parts_.erase(id);
   confirm_born_at_.erase(id);
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
@@ -644,23 +646,66 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       apart = scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
     }
     streak = apart ? streak + 1 : 0;
+    const std::vector<SplitPart> parts_apart = follow_parts(object, scene, apart ? large : decltype(large){});
     if (streak < o.split_frames) continue;
-    streak = 0;
-    // The object keeps its largest part (first of equals) and a model of it; the others are new.
+    // The object keeps its largest part (first of equals); the others that departed from its motion are new.
     const auto largest = std::max_element(large.begin(), large.end(), [](const auto* x, const auto* y) {
       return x->size() < y->size();
     });
-    const std::vector<int>& own = **largest;
+    std::vector<const std::vector<int>*> leaving;
+    for (std::size_t k = 0; k < large.size(); ++k) {
+      if (large[k] == *largest) continue;
+      const SplitPart& part = parts_apart[k];
+      const Eigen::Isometry3f since = object.pose.isometry() * part.first_pose.isometry().inverse();
+      if ((since * part.first_centroid - part.centroid).norm() >= o.split_min_departure) leaving.push_back(large[k]);
+    }
+    if (leaving.empty()) continue;  // parts of one body so far: the streak goes on
+    streak = 0;
+    split_parts_.erase(id);
+    std::vector<int> own;
+    for (const auto* points : large) {
+      if (std::find(leaving.begin(), leaving.end(), points) == leaving.end()) own.insert(own.end(), points->begin(), points->end());
+    }
+    std::sort(own.begin(), own.end());
     rebuild_model(object, scene, own);
     current_birth_ = next_birth_++;
-    for (const auto* points : large) {
-      if (points == &own) continue;
+    for (const auto* points : leaving) {
       for (const int i : *points) frame_.labels[static_cast<std::size_t>(i)] = 0;
       const std::size_t before = frame_.created.size();
       create_object(scene, *points);
       if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
     }
   }
+}
+
+std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedObject& object, const ColoredCloud& scene,
+                                                                  std::span<const std::vector<int>* const> parts) {
+  SplitParts& last = split_parts_[object.id];
+  // Last frame's part each part continues: its centroid, moved with the object or left where it was, is the nearest
+  // within split_min_gap (parts lie that far apart); a part continuing none is first seen now.
+  const Eigen::Isometry3f motion = object.pose.isometry() * last.pose.isometry().inverse();
+  std::vector<SplitPart> now;
+  for (const std::vector<int>* points : parts) {
+    SplitPart part;
+    for (const int i : *points) part.centroid += scene.positions[static_cast<std::size_t>(i)];
+    part.centroid /= static_cast<float>(points->size());
+    part.first_centroid = part.centroid;
+    part.first_pose = object.pose;
+    float best = options_.join_split.split_min_gap;
+    for (const SplitPart& before : last.parts) {
+      const float distance =
+          std::min((motion * before.centroid - part.centroid).norm(), (before.centroid - part.centroid).norm());
+      if (distance < best) {
+        best = distance;
+        part.first_centroid = before.first_centroid;
+        part.first_pose = before.first_pose;
+      }
+    }
+    now.push_back(part);
+  }
+  last.pose = object.pose;
+  last.parts = now;
+  return now;
 }
 
 void ObjectManager::confirm_discovery(const ColoredCloud& scene) {

@@ -53,6 +53,10 @@ struct JoinSplitOptions {
   // from its hand by a few centimetres is not two objects.
   float split_min_gap = 0.03f;
   float split_max_occluded = 0.1f;    // [0, 1]
+  // A part other than the largest splits off only once it has departed this far (metres, [0, 1]) from where the
+  // object's own motion since the part was first seen apart would have put it (its centroid): a hand seen in two
+  // clusters (its front and its arm) moves as one, a box it lets go of stays behind. 0 = any part splits.
+  float split_min_departure = 0.f;
   void validate() const;
 };
 
@@ -243,6 +247,20 @@ class ObjectManager {
   // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
   // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
   void confirm_discovery(const ColoredCloud& scene);
+  // Step 7 (split) state per object seen in parts: each part's centroid (camera frame) last frame, and where and at which object pose
+  // it was first seen apart (split_min_departure), with the object's pose last frame.
+  struct SplitPart {
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+    Eigen::Vector3f first_centroid = Eigen::Vector3f::Zero();
+    Pose first_pose;
+  };
+  struct SplitParts {
+    Pose pose;
+    std::vector<SplitPart> parts;
+  };
+  // Step 7 (split): this frame's parts of an object (empty: not apart), each followed from last frame's.
+  std::vector<SplitPart> follow_parts(const ManagedObject& object, const ColoredCloud& scene,
+                                      std::span<const std::vector<int>* const> parts);
   // How the discovery's parts of a birth's objects meet those objects (this frame's labels): each object takes
   // the part it overlaps most, largest overlaps first, one part per object and object per part.
   struct PartMatch {
@@ -304,6 +322,7 @@ class ObjectManager {
   std::map<std::int32_t, std::uint64_t> birth_;
   std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
   std::map<std::int32_t, int> split_streak_;
+  std::map<std::int32_t, SplitParts> split_parts_;
   // Objects confirm_discovery still looks at, with where each was born (camera frame); per birth (the objects
   // found in one cluster), the frames in which the discovery disagreed with them.
   std::map<std::int32_t, Eigen::Vector3f> confirm_born_at_;

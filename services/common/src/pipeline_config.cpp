@@ -214,6 +214,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   js.split_min_share = s.get<float>("split_min_share", 0.01f, 0.5f);
   js.split_min_gap = s.get<float>("split_min_gap", 0.f, 1.f);
   js.split_max_occluded = s.get<float>("split_max_occluded", 0.f, 1.f);
+  js.split_min_departure = s.get<float>("split_min_departure", 0.f, 1.f);
   auto carry = s.section("carry");
   c.manager.carry.frames = carry.get<int>("frames", 0, 10000);
   c.manager.carry.translation = carry.get<float>("translation", 1e-4f, 0.5f);
