@@ -664,7 +664,9 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
     split_parts_.erase(id);
     std::vector<int> own;
     for (const auto* points : large) {
-      if (std::find(leaving.begin(), leaving.end(), points) == leaving.end()) own.insert(own.end(), points->begin(), points->end());
+      if (std::find(leaving.begin(), leaving.end(), points) == leaving.end()) {
+        own.insert(own.end(), points->begin(), points->end());
+      }
     }
     std::sort(own.begin(), own.end());
     rebuild_model(object, scene, own);
@@ -678,7 +680,8 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
   }
 }
 
-std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedObject& object, const ColoredCloud& scene,
+std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedObject& object,
+                                                                  const ColoredCloud& scene,
                                                                   std::span<const std::vector<int>* const> parts) {
   SplitParts& last = split_parts_[object.id];
   // Last frame's part each part continues: its centroid, moved with the object or left where it was, is the nearest

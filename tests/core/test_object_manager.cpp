@@ -774,6 +774,57 @@ TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
   for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(result.labels[i], apart[i] == 0 ? 1 : 2);
 }
 
+TEST(ObjectManagerSplit, OnlyAPartThatDepartsFromTheObjectsMotionSplitsOff) {
+  // Two blocks born as one object, later seen in two clusters while the object moves 5 mm a frame along x.
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  add_block(cloud, cluster, 0, {-0.14f, 0.f, 1.f}, {10, 14, 6});
+  const std::size_t larger = 12u * 12u * 6u;
+  std::vector<std::int32_t> apart(cluster.size(), 0);
+  std::fill(apart.begin() + static_cast<std::ptrdiff_t>(larger), apart.end(), 1);
+  ObjectManagerOptions options;
+  options.segmentation.tau = 0.03f;  // the blocks stay segmented while they part by up to 3 cm
+  options.join_split.split_frames = 3;
+  options.join_split.split_min_gap = 0.004f;
+  options.join_split.split_min_departure = 0.0175f;
+  const auto frame_at = [&](float larger_dx, float smaller_dx) {
+    ColoredCloud moved = cloud;
+    for (std::size_t i = 0; i < moved.size(); ++i) moved.positions[i].x() += i < larger ? larger_dx : smaller_dx;
+    return moved;
+  };
+  const auto estimate_at = [](const Pose& born, float dx) {
+    Pose pose = born;
+    pose.translation.x() += dx;
+    return std::map<std::int32_t, ObjectEstimate>{{1, {pose, 1.f}}};
+  };
+  {  // both blocks move with the object's estimate: one body seen in two clusters, never split
+    ObjectManager manager(options);
+    manager.process(cloud, cluster, {});
+    const Pose born = manager.objects().at(1).pose;
+    for (int frame = 1; frame <= 10; ++frame) {
+      const float dx = 0.005f * static_cast<float>(frame);
+      EXPECT_TRUE(manager.process(frame_at(dx, dx), apart, estimate_at(born, dx)).split.empty()) << "frame " << frame;
+    }
+    EXPECT_EQ(manager.objects().size(), 1u);
+  }
+  // The smaller block stays where it was: it has departed 5 mm a frame from the object's motion since frame 1,
+  // 15 mm at frame 4, 20 mm at frame 5.
+  ObjectManager manager(options);
+  manager.process(cloud, cluster, {});
+  const Pose born = manager.objects().at(1).pose;
+  for (int frame = 1; frame <= 4; ++frame) {
+    const float dx = -0.005f * static_cast<float>(frame);  // away from the smaller block
+    EXPECT_TRUE(manager.process(frame_at(dx, 0.f), apart, estimate_at(born, dx)).split.empty()) << "frame " << frame;
+  }
+  const auto& result = manager.process(frame_at(-0.025f, 0.f), apart, estimate_at(born, -0.025f));
+  ASSERT_EQ(result.split, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
+  for (std::size_t i = 0; i < cloud.size(); ++i) EXPECT_EQ(result.labels[i], apart[i] == 0 ? 1 : 2);
+  ObjectManagerOptions invalid;
+  invalid.join_split.split_min_departure = 1.5f;
+  EXPECT_THROW(ObjectManager{invalid}, std::invalid_argument);
+}
+
 // A stand-in discovery told when to split and where: at x = at_x while splitting, else one part.
 class SplitWhenTold final : public ObjectDiscovery {
  public:

@@ -270,6 +270,12 @@ TEST(Config, DiscoveryBoundaryKeysReachTheManager) {
   }
 }
 
+TEST(Config, SplitDepartureReachesTheManager) {
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  split_min_departure: 0.05\n"));
+  EXPECT_FLOAT_EQ(m.manager.join_split.split_min_departure, 0.05f);
+  expect_rejected(load_merger_config, "merger:\n  split_min_departure: -0.1\n", "split_min_departure");
+}
+
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {
   EXPECT_THROW(load_config_file("/nonexistent/mfot.yaml"), ConfigError);
 }

@@ -45,8 +45,9 @@ struct JoinSplitOptions {
   // split_min_share of them (and min_object_points), the largest two split_min_gap apart, for
   // split_frames frames in a row while at
   // most split_max_occluded of its model is hidden (a hand in front cuts the visible part in
-  // two), is split: it keeps its largest part (its model is rebuilt from it) and every other part
-  // becomes a new object. 0 frames = off.
+  // two), is split: every part that departed from the object's motion (split_min_departure) becomes a
+  // new object, and the object keeps the others, the largest among them (its model is rebuilt from
+  // them). 0 frames = off.
   int split_frames = 0;               // [0, 10000]
   float split_min_share = 0.2f;       // (0, 0.5]
   // The parts must lie at least this far apart (metres, [0, 1]): a grazing view that cuts an arm
@@ -247,8 +248,8 @@ class ObjectManager {
   // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
   // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
   void confirm_discovery(const ColoredCloud& scene);
-  // Step 7 (split) state per object seen in parts: each part's centroid (camera frame) last frame, and where and at which object pose
-  // it was first seen apart (split_min_departure), with the object's pose last frame.
+  // Step 7 (split) state per object seen in parts: each part's centroid (camera frame) last frame, and where
+  // and at which object pose it was first seen apart (split_min_departure), with the object's pose last frame.
   struct SplitPart {
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     Eigen::Vector3f first_centroid = Eigen::Vector3f::Zero();
