@@ -30,6 +30,10 @@ void JoinSplitOptions::validate() const {
   in("split_min_gap", split_min_gap, 0, 1, false);
   in("split_max_occluded", split_max_occluded, 0, 1, false);
   in("split_min_departure", split_min_departure, 0, 1, false);
+  if (split_min_departure > 0.f && split_min_gap <= 0.f) {
+    throw std::invalid_argument("JoinSplitOptions.split_min_departure needs split_min_gap > 0: parts are followed from "
+                                "frame to frame within split_min_gap");
+  }
 }
 
 void ObjectManagerOptions::validate() const {

@@ -823,6 +823,9 @@ TEST(ObjectManagerSplit, OnlyAPartThatDepartsFromTheObjectsMotionSplitsOff) {
   ObjectManagerOptions invalid;
   invalid.join_split.split_min_departure = 1.5f;
   EXPECT_THROW(ObjectManager{invalid}, std::invalid_argument);
+  invalid.join_split.split_min_departure = 0.03f;
+  invalid.join_split.split_min_gap = 0.f;  // parts could not be followed
+  EXPECT_THROW(ObjectManager{invalid}, std::invalid_argument);
 }
 
 // A stand-in discovery told when to split and where: at x = at_x while splitting, else one part.

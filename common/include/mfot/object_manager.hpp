@@ -56,7 +56,8 @@ struct JoinSplitOptions {
   float split_max_occluded = 0.1f;    // [0, 1]
   // A part other than the largest splits off only once it has departed this far (metres, [0, 1]) from where the
   // object's own motion since the part was first seen apart would have put it (its centroid): a hand seen in two
-  // clusters (its front and its arm) moves as one, a box it lets go of stays behind. 0 = any part splits.
+  // clusters (its front and its arm) moves as one, a box it lets go of stays behind. 0 = any part splits; above 0
+  // it needs split_min_gap > 0 (parts are followed from frame to frame within it).
   float split_min_departure = 0.f;
   void validate() const;
 };
