@@ -63,7 +63,8 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
   watch.last_seen = relative;
   watch.recent.push_back(relative);
   if (watch.recent.size() > static_cast<std::size_t>(options_.frames)) watch.recent.pop_front();
-  watch.neighbour_moved = watch.neighbour_moved || motion_units(neighbour.pose, watch.neighbour_at_start, options_) >= 1.f;
+  watch.neighbour_moved =
+      watch.neighbour_moved || motion_units(neighbour.pose, watch.neighbour_at_start, options_) >= 1.f;
 }
 
 void CarryMonitor::observe_hidden(const Object& object, const Object& neighbour) {

@@ -687,6 +687,10 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
 std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedObject& object,
                                                                   const ColoredCloud& scene,
                                                                   std::span<const std::vector<int>* const> parts) {
+  if (parts.empty()) {  // not seen apart: nothing to follow
+    split_parts_.erase(object.id);
+    return {};
+  }
   SplitParts& last = split_parts_[object.id];
   // Last frame's part each part continues: its centroid, moved with the object or left where it was, is the nearest
   // within split_min_gap (parts lie that far apart); a part continuing none is first seen now.

@@ -1,6 +1,6 @@
 #include "mfot/part_boundary.hpp"
 
-#include <Eigen/Eigenvalues>
+#include "mfot/point_scatter.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -66,11 +66,26 @@ void PartBoundaryRefiner::add_vote(Histogram& histogram, Rgb8 color) {
   for (std::size_t k = 0; k < 8; ++k) histogram[static_cast<std::size_t>(c.bin[k])] += c.weight[k];
 }
 
-float PartBoundaryRefiner::density(const Histogram& histogram, Rgb8 color) {
+float PartBoundaryRefiner::log_density(const Histogram& histogram, float votes, Rgb8 color) {
   const Corners c = corners_of<kLevels>(color);
   float value = 0.f;
   for (std::size_t k = 0; k < 8; ++k) value += c.weight[k] * histogram[static_cast<std::size_t>(c.bin[k])];
-  return value;
+  return std::log((value + 1.f) / (votes + static_cast<float>(histogram.size())));
+}
+
+template <class LogDensity>
+bool PartBoundaryRefiner::patch_prefers(std::size_t i, const std::vector<int>& part_of_point, std::size_t parts,
+                                        LogDensity&& log_density_of) const {
+  const auto own = static_cast<std::size_t>(part_of_point[i]);
+  float ratio = 0.f;
+  int scored = 0;
+  for (int k = patch_offsets_[i]; k < patch_offsets_[i + 1]; ++k) {
+    const auto j = static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)]);
+    if (static_cast<std::size_t>(part_of_point[j]) != own) continue;
+    ratio += log_density_of(j) - log_density_[j * parts + own];
+    ++scored;
+  }
+  return ratio >= std::log(options_.min_color_ratio) * static_cast<float>(scored);
 }
 
 void PartBoundaryRefiner::find_borders(std::span<const Eigen::Vector3f> positions,
@@ -122,21 +137,13 @@ void PartBoundaryRefiner::find_borders(std::span<const Eigen::Vector3f> position
 bool PartBoundaryRefiner::continues_face_of(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
                                             const std::vector<int>& part_of_point, std::size_t parts, std::size_t i,
                                             int part) {
-  const auto own = static_cast<std::size_t>(part_of_point[i]);
-  // The plane of the point's patch (all parts): its normal is the smallest eigenvector of the scatter.
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-  const int count = patch_offsets_[i + 1] - patch_offsets_[i];
-  if (count < 3) return false;
+  // The plane of the point's patch (all parts).
+  PointScatter patch;
   for (int k = patch_offsets_[i]; k < patch_offsets_[i + 1]; ++k) {
-    const auto j = static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)]);
-    const Eigen::Vector3d p = positions[j].cast<double>();
-    sum += p;
-    outer += p * p.transpose();
+    patch.add(positions[static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)])]);
   }
-  const Eigen::Vector3d mean = sum / count;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(outer / count - mean * mean.transpose());
-  const Eigen::Vector3f normal = solver.eigenvectors().col(0).cast<float>();
+  if (patch.count() < 3) return false;
+  const Eigen::Vector3f normal = patch.least_spread_direction().cast<float>();
   // Most of the part's points within radius lie on that plane: the point continues one of its faces.
   neighbours_.clear();
   hash_.radius_search(positions[i], options_.radius, neighbours_);
@@ -156,17 +163,10 @@ bool PartBoundaryRefiner::continues_face_of(std::span<const Eigen::Vector3f> pos
   // part does (a white face flush with a yellow end face says no, whatever colours the part has
   // elsewhere). One pseudo-count per bin, as in the parts' models: a face of a few points is weak
   // evidence, so a point far from the face waits for a later pass.
-  const float total = static_cast<float>(on_plane) + static_cast<float>(local_model_.size());
-  const float min_log_ratio = std::log(options_.min_color_ratio);
-  float ratio = 0.f;
-  int scored = 0;
-  for (int k = patch_offsets_[i]; k < patch_offsets_[i + 1]; ++k) {
-    const auto j = static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)]);
-    if (static_cast<std::size_t>(part_of_point[j]) != own) continue;
-    ratio += std::log((density(local_model_, colors[j]) + 1.f) / total) - log_density_[j * parts + own];
-    ++scored;
-  }
-  return ratio >= min_log_ratio * static_cast<float>(scored);
+  const auto under_face = [&](std::size_t j) {
+    return log_density(local_model_, static_cast<float>(on_plane), colors[j]);
+  };
+  return patch_prefers(i, part_of_point, parts, under_face);
 }
 
 std::size_t PartBoundaryRefiner::refine(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
@@ -196,24 +196,21 @@ std::size_t PartBoundaryRefiner::refine(std::span<const Eigen::Vector3f> positio
     if (facing_[i] < 0) ++core[static_cast<std::size_t>(part_of_point[i])];
   }
   std::vector<Histogram> models(part_count, Histogram{});
+  std::vector<float> votes(part_count, 0.f);
   for (std::size_t i = 0; i < n; ++i) {
     const auto p = static_cast<std::size_t>(part_of_point[i]);
-    if (facing_[i] < 0 || 2 * core[p] < size[p]) add_vote(models[p], colors[i]);
-  }
-  for (Histogram& model : models) {
-    float total = 0.f;
-    for (float& count : model) total += (count += 1.f);
-    for (float& count : model) count /= total;
+    if (facing_[i] >= 0 && 2 * core[p] >= size[p]) continue;
+    add_vote(models[p], colors[i]);
+    votes[p] += 1.f;
   }
   log_density_.resize(n * part_count);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t p = 0; p < part_count; ++p) {
-      log_density_[i * part_count + p] = std::log(density(models[p], colors[i]));
+      log_density_[i * part_count + p] = log_density(models[p], votes[p], colors[i]);
     }
   }
 
   // 4-5. moves, pass by pass
-  const float min_log_ratio = std::log(options_.min_color_ratio);
   const std::vector<int> before = part_of_point;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     if (pass > 0) find_borders(positions, part_of_point);
@@ -221,17 +218,9 @@ std::size_t PartBoundaryRefiner::refine(std::span<const Eigen::Vector3f> positio
     bool any = false;
     for (std::size_t i = 0; i < n; ++i) {
       if (facing_[i] < 0) continue;
-      const auto own = static_cast<std::size_t>(part_of_point[i]);
       const auto other = static_cast<std::size_t>(facing_[i]);
-      float ratio = 0.f;
-      int scored = 0;
-      for (int k = patch_offsets_[i]; k < patch_offsets_[i + 1]; ++k) {
-        const auto j = static_cast<std::size_t>(patch_points_[static_cast<std::size_t>(k)]);
-        if (static_cast<std::size_t>(part_of_point[j]) != own) continue;
-        ratio += log_density_[j * part_count + other] - log_density_[j * part_count + own];
-        ++scored;
-      }
-      if (ratio >= min_log_ratio * static_cast<float>(scored) &&
+      const auto under_other = [&](std::size_t j) { return log_density_[j * part_count + other]; };
+      if (patch_prefers(i, part_of_point, part_count, under_other) &&
           continues_face_of(positions, colors, part_of_point, part_count, i, facing_[i])) {
         next_[i] = facing_[i];
         any = true;

@@ -1,6 +1,6 @@
 #include "mfot/preprocessing.hpp"
 
-#include <Eigen/Eigenvalues>
+#include "mfot/point_scatter.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -86,22 +86,13 @@ TablePlane PlaneFitter::fit(std::span<const Eigen::Vector3f> points, float* inli
   // of least spread.
   const Eigen::Vector3f normal = best.coefficients.head<3>();
   const float offset = best.coefficients[3];
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-  std::size_t count = 0;
+  PointScatter band_points;
   for (const Eigen::Vector3f& p : points) {
-    if (std::abs(normal.dot(p) + offset) < band) {
-      const Eigen::Vector3d q = p.cast<double>();
-      sum += q;
-      outer.noalias() += q * q.transpose();
-      ++count;
-    }
+    if (std::abs(normal.dot(p) + offset) < band) band_points.add(p);
   }
-  if (count >= 3) {
-    const Eigen::Vector3d centroid = sum / static_cast<double>(count);
-    const Eigen::Matrix3d covariance = outer / static_cast<double>(count) - centroid * centroid.transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
-    Eigen::Vector3d refined_normal = solver.eigenvectors().col(0);  // smallest eigenvalue first
+  if (band_points.count() >= 3) {
+    const Eigen::Vector3d centroid = band_points.centroid();
+    Eigen::Vector3d refined_normal = band_points.least_spread_direction();
     if (refined_normal.dot(normal.cast<double>()) < 0.0) refined_normal = -refined_normal;
     double refined_offset = -refined_normal.dot(centroid);
     if (refined_offset < 0.0) {

@@ -260,7 +260,8 @@ class ObjectManager {
     Pose pose;
     std::vector<SplitPart> parts;
   };
-  // Step 7 (split): this frame's parts of an object (empty: not apart), each followed from last frame's.
+  // Step 7 (split): this frame's parts of an object (empty: not apart, and its state goes), each followed from
+  // last frame's.
   std::vector<SplitPart> follow_parts(const ManagedObject& object, const ColoredCloud& scene,
                                       std::span<const std::vector<int>* const> parts);
   // How the discovery's parts of a birth's objects meet those objects (this frame's labels): each object takes

@@ -69,8 +69,14 @@ class PartBoundaryRefiner {
   // Step 4b and c: point i continues a face of part, in shape and in colour.
   bool continues_face_of(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
                          const std::vector<int>& part_of_point, std::size_t parts, std::size_t i, int part);
+  // Steps 4a and c: over the points of i's patch in its own part, the mean of log_density_of(point) minus
+  // their own part's log density is at least log(min_color_ratio).
+  template <class LogDensity>
+  bool patch_prefers(std::size_t i, const std::vector<int>& part_of_point, std::size_t parts,
+                     LogDensity&& log_density_of) const;
   static void add_vote(Histogram& histogram, Rgb8 color);
-  static float density(const Histogram& histogram, Rgb8 color);
+  // Log density of a colour under a histogram of `votes` votes, with one pseudo-count per bin.
+  static float log_density(const Histogram& histogram, float votes, Rgb8 color);
 
   PartBoundaryOptions options_;
   SpatialHash hash_;
