@@ -130,6 +130,89 @@ TEST(IcpRefinement, TheFinalIterationsOnADenseSampleAverageTheNoiseOut) {
   EXPECT_LT(dense_worst, sparse_worst);
 }
 
+// The box grown from a first view: one of the faces the camera sees was added later with a pose 6 degrees
+// off (turned about the box's centre), as a growth during a fast turn adds it; the first view is the rest.
+struct GrownBox {
+  SeenBox box;
+  ColoredCloud first_view;
+  ColoredCloud grown;
+  GrownBox() {
+    const Eigen::Vector3f half = 0.5f * kSize;
+    // The visible face with the most points: its outward normal faces the camera at the truth.
+    int grown_face = -1;
+    std::size_t most = 0;
+    for (int face = 0; face < 6; ++face) {
+      Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+      normal[face / 2] = face % 2 == 0 ? -1.f : 1.f;
+      const Eigen::Vector3f centre = box.truth.isometry() * Eigen::Vector3f(normal.cwiseProduct(half));
+      if ((box.truth.rotation * normal).dot(centre) >= 0.f) continue;
+      std::size_t count = 0;
+      for (const Eigen::Vector3f& p : box.model.positions) count += on_face(p, face) ? 1 : 0;
+      if (count > most) {
+        most = count;
+        grown_face = face;
+      }
+    }
+    const Eigen::Matrix3f off = Eigen::AngleAxisf(test::radians(6.f), Eigen::Vector3f(0.3f, 1.f, -0.4f).normalized())
+                                    .toRotationMatrix();
+    ColoredCloud added;
+    for (std::size_t k = 0; k < box.model.size(); ++k) {
+      const Eigen::Vector3f& p = box.model.positions[k];
+      if (on_face(p, grown_face)) {
+        added.push_back(off * p, box.model.colors[k]);
+      } else {
+        first_view.push_back(p, box.model.colors[k]);
+      }
+    }
+    grown = first_view;  // growth appends
+    for (std::size_t k = 0; k < added.size(); ++k) grown.push_back(added.positions[k], added.colors[k]);
+  }
+  static bool on_face(const Eigen::Vector3f& p, int face) {
+    const float side = face % 2 == 0 ? -1.f : 1.f;
+    return std::abs(p[face / 2] - side * 0.5f * kSize[face / 2]) < 1e-4f;
+  }
+};
+
+TEST(IcpRefinement, TheFirstViewAnchorsTheFrameAgainstAGrownFacesError) {
+  const GrownBox g;
+  const Pose start = g.box.start();
+  const auto refine_grown = [&](float anchor_weight) {
+    IcpRefinementOptions o = iterations(20);
+    o.anchor_weight = anchor_weight;
+    IcpRefinement icp(o);
+    icp.refine(g.box.scene.positions, g.first_view.positions, start);  // the object's first model
+    const IcpResult r = icp.refine(g.box.scene.positions, g.grown.positions, start);
+    EXPECT_TRUE(r.refined);
+    return r;
+  };
+  const IcpResult alike = refine_grown(1.f);
+  const IcpResult anchored = refine_grown(10.f);
+  const float alike_deg = test::degrees(test::rotation_error(alike.pose, g.box.truth));
+  const float anchored_deg = test::degrees(test::rotation_error(anchored.pose, g.box.truth));
+  std::printf("a face grown 6 deg off: all points alike %.2f deg / %.2f mm off, the first view weighing 10: %.2f deg / "
+              "%.2f mm\n", alike_deg, 1e3f * test::translation_error(alike.pose, g.box.truth), anchored_deg,
+              1e3f * test::translation_error(anchored.pose, g.box.truth));
+  EXPECT_GT(alike_deg, 1.5f);  // the grown face pulls the fit
+  EXPECT_LT(anchored_deg, 0.5f * alike_deg);
+  EXPECT_LT(anchored_deg, 1.f);
+
+  // Without a first view before it, the grown model is the first view: every point alike.
+  IcpRefinementOptions o = iterations(20);
+  o.anchor_weight = 10.f;
+  IcpRefinement fresh(o);
+  const IcpResult first = fresh.refine(g.box.scene.positions, g.grown.positions, start);
+  EXPECT_EQ(first.pose.rotation.coeffs(), alike.pose.rotation.coeffs());
+  EXPECT_EQ(first.pose.translation, alike.pose.translation);
+  // A model sharing no point with the first view (rebuilt in a new frame, here 1 mm over) is the new first view.
+  ColoredCloud rebuilt = g.grown;
+  for (Eigen::Vector3f& p : rebuilt.positions) p.x() += 0.001f;
+  const IcpResult moved = fresh.refine(g.box.scene.positions, rebuilt.positions, start);
+  IcpRefinement fresh_alike(iterations(20));
+  const IcpResult moved_alike = fresh_alike.refine(g.box.scene.positions, rebuilt.positions, start);
+  EXPECT_EQ(moved.pose.rotation.coeffs(), moved_alike.pose.rotation.coeffs());
+  EXPECT_EQ(moved.pose.translation, moved_alike.pose.translation);
+}
+
 TEST(IcpRefinement, RefusesACorrectionBeyondItsLimits) {
   const SeenBox box;
   const Pose start = box.start();
@@ -164,6 +247,8 @@ TEST(IcpRefinement, InvalidOptionsThrow) {
     o.final_iterations = 4;  // more than the iterations
   });
   bad([](IcpRefinementOptions& o) { o.final_iterations = -1; });
+  bad([](IcpRefinementOptions& o) { o.anchor_weight = 0.9f; });
+  bad([](IcpRefinementOptions& o) { o.anchor_weight = 1001.f; });
   try {
     IcpRefinementOptions o;
     o.max_distance = 0.5f;

@@ -41,6 +41,10 @@ struct IcpRefinementOptions {
   // (README "ICP on 2000 points"). [0, iterations] and [3, 1000000].
   int final_iterations = 0;
   int final_points = 400;
+  // The pairs of the object's first-view points (see refine's step 1) weigh this much in the fit, the
+  // points grown since 1: where the first view shows, it holds the object's frame, which the pose error
+  // of each growth would otherwise shift (README "Anchored on the first view"). [1, 1000]; 1 = all alike.
+  float anchor_weight = 1.f;
   // Throws std::invalid_argument naming the field as owner.field.
   void validate(const std::string& owner = "IcpRefinementOptions") const;
 };
@@ -53,19 +57,23 @@ struct IcpResult {
 };
 
 // Steps of refine():
-//  1. build a spatial hash over the model's points (object frame), unless they are the last call's;
+//  1. build a spatial hash over the model's points (object frame), unless they are the last call's; with
+//     anchor_weight > 1, mark the model's anchors: the points it shares (exactly: growth and thinning move
+//     no point) with the first model this refinement was given, the object's first view, which placed its
+//     frame exactly, where each point grown since was placed with the pose estimate of its frame, errors
+//     included. A model sharing none of them (rebuilt in a new frame) is the new first view;
 //  2. each iteration: map the scene points (an even sample of at most max_points; of at most final_points in the
 //     last final_iterations) into the object frame with the inverse of the current
 //     pose, pair each with the nearest model point within max_distance; with fewer than
 //     min_paired_share of them paired, stop and keep the start pose;
-//  3. the rigid transform that best maps the paired model points onto their scene points (least
-//     squares, closed form) is the new pose; when every point of the sample paired as in the last
-//     iteration, that is the pose already (converged): the iterations on that sample end (the final
-//     ones, on their own sample, still run);
+//  3. the rigid transform that best maps the paired model points onto their scene points (weighted least
+//     squares, closed form; an anchor's pair weighs anchor_weight, the others 1) is the new pose; when
+//     every point of the sample paired as in the last iteration, that is the pose already (converged):
+//     the iterations on that sample end (the final ones, on their own sample, still run);
 //  4. after the iterations, refuse a pose further from the start than max_translation /
 //     max_rotation.
 // Deterministic, no random draws. Non-copyable: it owns the model hash (kept while the model's points
-// stay the same) and the pair buffers.
+// stay the same), the first view and the pair buffers.
 class IcpRefinement {
  public:
   explicit IcpRefinement(const IcpRefinementOptions& options = {});
@@ -88,8 +96,14 @@ class IcpRefinement {
   std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
   std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
   std::vector<int> previous_nearest_;  // ... and in the last
+  // Step 1's anchors: the first view, indexed; each model point's weight (empty: all alike).
+  void weigh_anchors();
+  std::vector<Eigen::Vector3f> first_view_;
+  SpatialHash first_view_hash_;
+  std::vector<float> weights_;
   std::vector<Eigen::Vector3f> paired_model_;
   std::vector<Eigen::Vector3f> paired_scene_;
+  std::vector<float> paired_weights_;
 };
 
 }  // namespace mfot
