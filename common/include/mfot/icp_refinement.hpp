@@ -59,8 +59,8 @@ struct IcpResult {
 // Steps of refine():
 //  1. build a spatial hash over the model's points (object frame), unless they are the last call's; with
 //     anchor_weight > 1, mark the model's anchors: the points it shares (exactly: growth and thinning move
-//     no point) with the first model this refinement was given, the object's first view, which placed its
-//     frame exactly, where each point grown since was placed with the pose estimate of its frame, errors
+//     no point) with the first model this refinement was given: the object's first view, which placed its
+//     frame exactly, whereas each point grown since was placed with the pose estimate of its frame, errors
 //     included. A model sharing none of them (rebuilt in a new frame) is the new first view;
 //  2. each iteration: map the scene points (an even sample of at most max_points; of at most final_points in the
 //     last final_iterations) into the object frame with the inverse of the current
