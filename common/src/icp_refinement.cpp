@@ -104,7 +104,7 @@ void IcpRefinement::weigh_anchors() {
   weights_.clear();
   if (options_.anchor_weight <= 1.f) return;
   std::size_t anchors = 0;
-  if (!first_view_.empty()) {
+  if (first_view_hash_.size() > 0) {
     for (const Eigen::Vector3f& m : hashed_model_) {
       // Radius 0: the first view's point at exactly this place (growth and thinning copy points unchanged).
       const bool anchor = first_view_hash_.nearest(m, 0.f) >= 0;
@@ -113,8 +113,7 @@ void IcpRefinement::weigh_anchors() {
     }
   }
   if (anchors == 0) {  // the first model, or one rebuilt in a new frame: it is the first view
-    first_view_ = hashed_model_;
-    first_view_hash_.build(first_view_);
+    first_view_hash_.build(hashed_model_);  // the hash keeps its own copy of the points
     anchors = hashed_model_.size();
   }
   if (anchors == hashed_model_.size()) weights_.clear();  // all alike

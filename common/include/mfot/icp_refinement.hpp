@@ -96,9 +96,8 @@ class IcpRefinement {
   std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
   std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
   std::vector<int> previous_nearest_;  // ... and in the last
-  // Step 1's anchors: the first view, indexed; each model point's weight (empty: all alike).
+  // Step 1's anchors: the first view, indexed (empty: none yet); each model point's weight (empty: all alike).
   void weigh_anchors();
-  std::vector<Eigen::Vector3f> first_view_;
   SpatialHash first_view_hash_;
   std::vector<float> weights_;
   std::vector<Eigen::Vector3f> paired_model_;
