@@ -55,6 +55,10 @@ const IcpRefinementOptions& validated(const IcpRefinementOptions& options) {
 // cells'; only the points with none that near are looked up again over the whole max_distance. Same pairs.
 constexpr float kNearSearch = 0.4f;
 
+// Metres added to a pair bound's test, far above float rounding at object scale (~1e-8 m): a point kept by
+// the bound is the nearest with no tie, so the pairs are those of a new query.
+constexpr float kBoundSlack = 1e-6f;
+
 // An even stride over scene with at most max_points of them.
 void even_sample(std::span<const Eigen::Vector3f> scene, int max_points, std::vector<Eigen::Vector3f>& out) {
   const auto points = static_cast<std::size_t>(max_points);
@@ -107,7 +111,7 @@ void IcpRefinement::weigh_anchors() {
   if (first_view_hash_.size() > 0) {
     for (const Eigen::Vector3f& m : hashed_model_) {
       // Radius 0: the first view's point at exactly this place (growth and thinning copy points unchanged).
-      const bool anchor = first_view_hash_.nearest(m, 0.f) >= 0;
+      const bool anchor = first_view_hash_.any_within(m, 0.f);
       weights_.push_back(anchor ? options_.anchor_weight : 1.f);
       anchors += anchor ? 1 : 0;
     }
@@ -119,9 +123,27 @@ void IcpRefinement::weigh_anchors() {
   if (anchors == hashed_model_.size()) weights_.clear();  // all alike
 }
 
+int IcpRefinement::pair(const Eigen::Vector3f& local, std::span<const Eigen::Vector3f> model, int last_nearest,
+                        PairBound& bound) const {
+  if (last_nearest >= 0) {
+    const float moved = (local - bound.query).norm();
+    if (bound.distance + 2.f * moved + kBoundSlack < bound.others) {
+      const float d2 = (model[static_cast<std::size_t>(last_nearest)] - local).squaredNorm();
+      return d2 <= options_.max_distance * options_.max_distance ? last_nearest : -1;
+    }
+  }
+  float d2 = 0.f;
+  float others_d2 = 0.f;
+  int nearest = model_hash_.nearest_with_bound(local, kNearSearch * options_.max_distance, d2, others_d2);
+  if (nearest < 0) nearest = model_hash_.nearest_with_bound(local, options_.max_distance, d2, others_d2);
+  bound = PairBound{local, std::sqrt(d2), std::sqrt(others_d2)};
+  return nearest;
+}
+
 bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
                             Eigen::Isometry3f& pose, IcpResult& result) {
   result.sampled = sample.size();
+  bounds_.resize(sample.size());
   const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
   for (int iteration = 0; iteration < count; ++iteration) {
     const Eigen::Isometry3f to_object = pose.inverse();
@@ -130,10 +152,10 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
     paired_weights_.clear();
     nearest_.swap(previous_nearest_);
     nearest_.clear();
-    for (const Eigen::Vector3f& p : sample) {
+    for (std::size_t i = 0; i < sample.size(); ++i) {
+      const Eigen::Vector3f& p = sample[i];
       const Eigen::Vector3f local = to_object * p;
-      int nearest = model_hash_.nearest(local, kNearSearch * options_.max_distance);
-      if (nearest < 0) nearest = model_hash_.nearest(local, options_.max_distance);
+      const int nearest = pair(local, model, iteration > 0 ? previous_nearest_[i] : -1, bounds_[i]);
       nearest_.push_back(nearest);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);

@@ -98,7 +98,7 @@ ObjectModel ModelUpdater::mix(const ObjectModel& old_model, const ColoredCloud& 
     for (const int i : new_candidates_) segmented_in_object_.push_back(to_object * source.positions[static_cast<std::size_t>(i)]);
     seen_hash_.build(segmented_in_object_);
     for (std::size_t i = 0; i < old_size; ++i) {
-      const bool seen = seen_hash_.nearest(old_model.cloud.positions[i], options_.seen_radius) >= 0;
+      const bool seen = seen_hash_.any_within(old_model.cloud.positions[i], options_.seen_radius);
       (seen ? old_candidates_ : unseen_).push_back(static_cast<int>(i));
     }
   } else {

@@ -583,7 +583,7 @@ bool ObjectManager::models_touch(const ManagedObject& a, const ManagedObject& b,
   contact_hash_.build(points);
   const Eigen::Isometry3f b_pose = b.pose.isometry();
   for (const Eigen::Vector3f& p : b.model.cloud.positions) {
-    if (contact_hash_.nearest(b_pose * p, distance) >= 0) return true;
+    if (contact_hash_.any_within(b_pose * p, distance)) return true;
   }
   return false;
 }
@@ -640,7 +640,7 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       contact_hash_ = SpatialHash(o.split_min_gap);
       contact_hash_.build(first);
       for (const int i : *large[1]) {
-        if (contact_hash_.nearest(scene.positions[static_cast<std::size_t>(i)], o.split_min_gap) >= 0) {
+        if (contact_hash_.any_within(scene.positions[static_cast<std::size_t>(i)], o.split_min_gap)) {
           apart = false;
           break;
         }

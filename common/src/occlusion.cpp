@@ -56,21 +56,11 @@ void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
   index_rays(scene_points, ray_points_, ray_scene_, ray_hash_);
 }
 
-void OcclusionTest::search_cone(const SpatialHash& hash, const Eigen::Vector3f& point) {
-  neighbours_.clear();
-  hash.radius_search(ray(point), options_.window, neighbours_);
-}
-
-bool OcclusionTest::occluded(const Eigen::Vector3f& point) { return occluded_by_other(point, nullptr); }
-
-bool OcclusionTest::occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own) {
+bool OcclusionTest::occluded(const Eigen::Vector3f& point) {
   if (!(point.z() > 0.f)) return true;
-  search_cone(ray_hash_, point);
   const float in_front = point.z() - options_.depth_margin;
-  return std::any_of(neighbours_.begin(), neighbours_.end(), [&](int i) {
-    const auto k = static_cast<std::size_t>(i);
-    return ray_scene_[k].z() < in_front && (own == nullptr || own->nearest(ray_scene_[k], options_.own_surface_radius) < 0);
-  });
+  return ray_hash_.any_within(ray(point), options_.window,
+                              [&](int i) { return ray_scene_[static_cast<std::size_t>(i)].z() < in_front; });
 }
 
 void OcclusionTest::set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
@@ -85,10 +75,26 @@ void OcclusionTest::set_model(std::span<const Eigen::Vector3f> model_points, con
 
 float OcclusionTest::occluded_share() {
   if (own_points_.empty()) return 0.f;
-  const SpatialHash* own = options_.own_surface_radius > 0.f ? &own_hash_ : nullptr;
+  // A scene point lies on the cones of several model points (its near and far side): whether it is the
+  // object's own surface is asked of the model's hash once per set model.
+  scene_on_own_surface_.assign(ray_scene_.size(), kUnknown);
   std::size_t occluded_points = 0;
   for (const auto& m : own_points_) {
-    if (occluded_by_other(m, own)) ++occluded_points;
+    if (!(m.z() > 0.f)) {
+      ++occluded_points;
+      continue;
+    }
+    const float in_front = m.z() - options_.depth_margin;
+    const bool occluded = ray_hash_.any_within(ray(m), options_.window, [&](int i) {
+      const auto k = static_cast<std::size_t>(i);
+      if (!(ray_scene_[k].z() < in_front)) return false;
+      if (options_.own_surface_radius <= 0.f) return true;
+      if (scene_on_own_surface_[k] == kUnknown) {
+        scene_on_own_surface_[k] = own_hash_.any_within(ray_scene_[k], options_.own_surface_radius) ? kYes : kNo;
+      }
+      return scene_on_own_surface_[k] == kNo;
+    });
+    if (occluded) ++occluded_points;
   }
   return static_cast<float>(occluded_points) / static_cast<float>(own_points_.size());
 }
@@ -103,10 +109,9 @@ float OcclusionTest::seen_through_share() {
   std::size_t seen_through = 0;
   for (const auto& m : own_points_) {
     if (!(m.z() > 0.f)) continue;
-    search_cone(ray_hash_, m);
     const float behind = m.z() + options_.depth_margin;
-    if (std::all_of(neighbours_.begin(), neighbours_.end(),
-                    [&](int i) { return ray_scene_[static_cast<std::size_t>(i)].z() > behind; })) {
+    if (!ray_hash_.any_within(ray(m), options_.window,
+                              [&](int i) { return !(ray_scene_[static_cast<std::size_t>(i)].z() > behind); })) {
       ++seen_through;
     }
   }
@@ -121,11 +126,10 @@ std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {
   }
   const auto occludes = [&](const Eigen::Vector3f& p) {
     if (!(p.z() > 0.f)) return false;
-    if (options_.own_surface_radius > 0.f && own_hash_.nearest(p, options_.own_surface_radius) >= 0) return false;
-    search_cone(model_ray_hash_, p);
+    if (options_.own_surface_radius > 0.f && own_hash_.any_within(p, options_.own_surface_radius)) return false;
     const float behind = p.z() + options_.depth_margin;
-    return std::any_of(neighbours_.begin(), neighbours_.end(),
-                       [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });
+    return model_ray_hash_.any_within(ray(p), options_.window,
+                                      [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });
   };
   std::size_t kept = 0;
   const std::size_t n = data.points.size();

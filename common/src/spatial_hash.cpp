@@ -10,22 +10,13 @@ namespace mfot {
 
 namespace {
 
-// Cell coordinates are clamped to 21 signed bits so three of them pack into one 64-bit key.
-// Clamping is monotone, so a query box still contains every cell of a point inside it; with
-// 10 mm cells the unclamped range is +-10 km.
-constexpr int kCoordBits = 21;
-constexpr float kCoordMin = -static_cast<float>(1 << (kCoordBits - 1));
-constexpr float kCoordMax = static_cast<float>((1 << (kCoordBits - 1)) - 1);
+using spatial_hash_detail::kCoordBits;
 
 // The dense layout is used up to this many cells per point (and at least kDenseMinCells):
 // 4 bytes per cell stay small next to the 16 bytes per point.
 constexpr std::int64_t kDenseCellsPerPoint = 64;
 constexpr std::int64_t kDenseMinCells = std::int64_t{1} << 18;
 constexpr std::int64_t kDenseMaxCells = std::int64_t{1} << 24;
-
-int clamped_cell(float scaled) {
-  return static_cast<int>(std::clamp(std::floor(scaled), kCoordMin, kCoordMax));
-}
 
 std::uint64_t pack_key(int cx, int cy, int cz) {
   constexpr std::uint64_t offset = std::uint64_t{1} << (kCoordBits - 1);
@@ -45,7 +36,7 @@ std::size_t hash_key(std::uint64_t key) {
   return static_cast<std::size_t>(key);
 }
 
-bool is_finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
+using spatial_hash_detail::is_finite;
 
 }  // namespace
 
@@ -54,10 +45,6 @@ SpatialHash::SpatialHash(float cell_size) : cell_size_(cell_size), inv_cell_(0.f
     throw std::invalid_argument("SpatialHash: cell_size must be finite and > 0, got " + std::to_string(cell_size));
   }
   inv_cell_ = 1.f / cell_size;
-}
-
-inline std::array<int, 3> SpatialHash::cell_of(const Eigen::Vector3f& p) const {
-  return {clamped_cell(p.x() * inv_cell_), clamped_cell(p.y() * inv_cell_), clamped_cell(p.z() * inv_cell_)};
 }
 
 void SpatialHash::build(std::span<const Eigen::Vector3f> points) {
@@ -158,61 +145,48 @@ const SpatialHash::CellRange* SpatialHash::find_cell(int cx, int cy, int cz) con
   }
 }
 
-template <class Visit>
-void SpatialHash::for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const {
-  if (sorted_points_.empty() || !(radius >= 0.f) || !is_finite(q)) return;
-  // The small pad keeps points whose float distance rounds down to the radius inside the box.
-  const Eigen::Vector3f r = Eigen::Vector3f::Constant(radius * 1.0001f + 1e-7f);
-  auto lo = cell_of(q - r);
-  auto hi = cell_of(q + r);
-
-  if (dense_) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::max(lo[a], grid_lo_[a]) - grid_lo_[a];
-      hi[a] = std::min(hi[a], grid_lo_[a] + grid_dims_[a] - 1) - grid_lo_[a];
-      if (lo[a] > hi[a]) return;
-    }
-    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-        const std::size_t row = (static_cast<std::size_t>(cz) * grid_dims_[1] + cy) * grid_dims_[0];
-        const int end = cell_start_[row + hi[0] + 1];
-        for (int s = cell_start_[row + lo[0]]; s < end; ++s) visit(s);
-      }
-    }
-    return;
-  }
-
-  const double volume = (static_cast<double>(hi[0]) - lo[0] + 1) * (static_cast<double>(hi[1]) - lo[1] + 1) *
-                        (static_cast<double>(hi[2]) - lo[2] + 1);
-  // A box wider than the occupied cells is cheaper to answer by scanning every point.
-  if (volume > static_cast<double>(cell_count_)) {
-    for (int s = 0; s < static_cast<int>(sorted_points_.size()); ++s) visit(s);
-    return;
-  }
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      for (int cx = lo[0]; cx <= hi[0]; ++cx) {
-        const CellRange* cell = find_cell(cx, cy, cz);
-        if (cell == nullptr) continue;
-        for (int s = cell->begin; s < cell->end; ++s) visit(s);
-      }
-    }
-  }
-}
-
 int SpatialHash::nearest(const Eigen::Vector3f& q, float max_distance, float* squared_distance) const {
   int best = -1;
   float best_d2 = max_distance * max_distance;
   for_each_candidate(q, max_distance, [&](int s) {
     const float d2 = (sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm();
-    if (d2 > best_d2) return;
+    if (d2 > best_d2) return false;
     const int i = sorted_index_[static_cast<std::size_t>(s)];
     if (d2 < best_d2 || best < 0 || i < best) {
       best_d2 = d2;
       best = i;
     }
+    return false;
   });
   if (best >= 0 && squared_distance != nullptr) *squared_distance = best_d2;
+  return best;
+}
+
+int SpatialHash::nearest_with_bound(const Eigen::Vector3f& q, float max_distance, float& squared_distance,
+                                    float& others_squared_bound) const {
+  // Every point within max_distance is visited, so one that is not lies further: max_distance bounds them.
+  const float max_d2 = max_distance * max_distance;
+  int best = -1;
+  float best_d2 = std::numeric_limits<float>::infinity();
+  float second_d2 = max_d2;
+  for_each_candidate(q, max_distance, [&](int s) {
+    const float d2 = (sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm();
+    const int i = sorted_index_[static_cast<std::size_t>(s)];
+    if (best < 0 || d2 < best_d2 || (d2 == best_d2 && i < best)) {  // nearest's order: ties to the lower index
+      if (best >= 0) second_d2 = std::min(second_d2, best_d2);
+      best_d2 = d2;
+      best = i;
+    } else {
+      second_d2 = std::min(second_d2, d2);
+    }
+    return false;
+  });
+  if (best >= 0 && best_d2 > max_d2) {  // looked at, but further than max_distance: none, as nearest says
+    second_d2 = std::min(second_d2, best_d2);
+    best = -1;
+  }
+  squared_distance = best_d2;
+  others_squared_bound = second_d2;
   return best;
 }
 
@@ -221,6 +195,7 @@ void SpatialHash::radius_search(const Eigen::Vector3f& q, float radius, std::vec
   const float r2 = radius * radius;
   for_each_candidate(q, radius, [&](int s) {
     if ((sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm() <= r2) out.push_back(sorted_index_[static_cast<std::size_t>(s)]);
+    return false;
   });
   std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
 }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <random>
@@ -92,6 +93,71 @@ TEST_P(SpatialHashVsBruteForce, RadiusSearchMatchesBruteForce) {
     got.erase(got.begin());
     ASSERT_EQ(got, expected);
   }
+}
+
+// The bound ICP relies on to skip queries (IcpRefinement): the same point as nearest, no other point nearer
+// than the bound, and after any move the bound allows, still the nearest.
+TEST_P(SpatialHashVsBruteForce, NearestWithBoundKeepsItsPointOverTheMovesItAllows) {
+  const float max_distance = GetParam();
+  const auto points = random_points(3000, 0.3f, 5);
+  const auto queries = random_points(2000, 0.35f, 6);
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> unit(-1.f, 1.f);
+  int kept = 0;
+  for (const auto& q : queries) {
+    float d2 = -1.f;
+    float others_d2 = -1.f;
+    const int got = hash.nearest_with_bound(q, max_distance, d2, others_d2);
+    float expected_d2 = 0.f;
+    ASSERT_EQ(got, brute_nearest(points, q, max_distance, expected_d2));
+    if (got >= 0) {
+      EXPECT_EQ(d2, expected_d2);
+    }
+    EXPECT_LE(others_d2, max_distance * max_distance);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (static_cast<int>(i) != got) {
+        ASSERT_GE((points[i] - q).squaredNorm(), others_d2);
+      }
+    }
+    if (got < 0) continue;
+    // The largest move the bound allows, in a random direction: the nearest stays.
+    const float slack = (std::sqrt(others_d2) - std::sqrt(d2)) / 2.f;
+    if (slack <= 1e-5f) continue;
+    const Eigen::Vector3f moved =
+        q + (slack - 1e-5f) * Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
+    float moved_d2 = 0.f;
+    const int still = brute_nearest(points, moved, std::numeric_limits<float>::max(), moved_d2);
+    ASSERT_EQ(still, got);
+    ++kept;
+  }
+  EXPECT_GT(kept, 20);  // at the smallest radius few queries find a point at all
+}
+
+TEST_P(SpatialHashVsBruteForce, AnyWithinMatchesBruteForce) {
+  const float radius = GetParam();
+  const auto points = random_points(3000, 0.3f, 8);
+  const auto queries = random_points(1000, 0.35f, 9);
+  SpatialHash hash(0.01f);
+  hash.build(points);
+  int found = 0;
+  int found_odd = 0;
+  for (const auto& q : queries) {
+    bool any = false;
+    bool any_odd = false;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if ((points[i] - q).squaredNorm() > radius * radius) continue;
+      any = true;
+      any_odd = any_odd || i % 2 == 1;
+    }
+    ASSERT_EQ(hash.any_within(q, radius), any);
+    ASSERT_EQ(hash.any_within(q, radius, [](int i) { return i % 2 == 1; }), any_odd);
+    found += any ? 1 : 0;
+    found_odd += any_odd ? 1 : 0;
+  }
+  EXPECT_GT(found, 0);
+  EXPECT_GT(found_odd, 0);
 }
 
 // Radii below, at and above the cell size, and one wider than the whole cloud.

@@ -64,7 +64,8 @@ struct IcpResult {
 //     included. A model sharing none of them (rebuilt in a new frame) is the new first view;
 //  2. each iteration: map the scene points (an even sample of at most max_points; of at most final_points in the
 //     last final_iterations) into the object frame with the inverse of the current
-//     pose, pair each with the nearest model point within max_distance; with fewer than
+//     pose, pair each with the nearest model point within max_distance (after the first iteration, a point
+//     whose last pair provably stays the nearest over the pose's move keeps it without a query); with fewer than
 //     min_paired_share of them paired, stop and keep the start pose;
 //  3. the rigid transform that best maps the paired model points onto their scene points (weighted least
 //     squares, closed form; an anchor's pair weighs anchor_weight, the others 1) is the new pose; when
@@ -96,6 +97,19 @@ class IcpRefinement {
   std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
   std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
   std::vector<int> previous_nearest_;  // ... and in the last
+  // A sample point's last query in the object frame, its nearest model point's distance and a lower bound
+  // on the others' (SpatialHash::nearest_with_bound), metres. Later iterations move the pose by a fraction
+  // of the point spacing, so most points keep their nearest provably and skip the query (same pairs).
+  struct PairBound {
+    Eigen::Vector3f query = Eigen::Vector3f::Zero();
+    float distance = 0.f;
+    float others = 0.f;
+  };
+  std::vector<PairBound> bounds_;  // per sample point
+  // The nearest model point within max_distance of local (-1: none), as SpatialHash::nearest would give:
+  // last_nearest when bound proves it still is, otherwise by a new query that renews bound.
+  int pair(const Eigen::Vector3f& local, std::span<const Eigen::Vector3f> model, int last_nearest,
+           PairBound& bound) const;
   // Step 1's anchors: the first view, indexed (empty: none yet); each model point's weight (empty: all alike).
   void weigh_anchors();
   SpatialHash first_view_hash_;

@@ -6,6 +6,7 @@
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -66,18 +67,16 @@ class OcclusionTest {
   // A cone index: (x/z, y/z, 0) of the points with z > 0 in hash, each with its point in sources.
   static void index_rays(std::span<const Eigen::Vector3f> points, std::vector<Eigen::Vector3f>& rays,
                          std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
-  // neighbours_ = the points of a cone index (hash) within window of point's ray (point at z > 0).
-  void search_cone(const SpatialHash& hash, const Eigen::Vector3f& point);
-  // occluded(), ignoring scene points within own_surface_radius of own_ (when given).
-  bool occluded_by_other(const Eigen::Vector3f& point, const SpatialHash* own);
 
   OcclusionOptions options_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
   std::vector<Eigen::Vector3f> ray_points_;
   std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point (its depth is z)
-  std::vector<int> neighbours_;
   SpatialHash own_hash_;                     // own_points_, when own_surface_radius > 0
   std::vector<Eigen::Vector3f> own_points_;  // the set model in the camera frame
+  // occluded_share: per scene ray point, whether it lies within own_surface_radius of the set model.
+  enum OwnSurface : std::uint8_t { kUnknown, kYes, kNo };
+  std::vector<OwnSurface> scene_on_own_surface_;
   bool model_rays_indexed_ = false;          // remove_occluders indexes the model's rays once per set_model
   SpatialHash model_ray_hash_;               // (x/z, y/z, 0) of the model's points with z > 0
   std::vector<Eigen::Vector3f> model_rays_;

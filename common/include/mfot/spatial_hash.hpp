@@ -5,13 +5,32 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
 
 namespace mfot {
+
+namespace spatial_hash_detail {
+
+// Cell coordinates are clamped to 21 signed bits so three of them pack into one 64-bit key.
+// Clamping is monotone, so a query box still contains every cell of a point inside it; with
+// 10 mm cells the unclamped range is +-10 km.
+constexpr int kCoordBits = 21;
+constexpr float kCoordMin = -static_cast<float>(1 << (kCoordBits - 1));
+constexpr float kCoordMax = static_cast<float>((1 << (kCoordBits - 1)) - 1);
+
+inline int clamped_cell(float scaled) { return static_cast<int>(std::clamp(std::floor(scaled), kCoordMin, kCoordMax)); }
+
+inline bool is_finite(const Eigen::Vector3f& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+}
+
+}  // namespace spatial_hash_detail
 
 class SpatialHash {
  public:
@@ -26,8 +45,23 @@ class SpatialHash {
   // squared distance when not null.
   int nearest(const Eigen::Vector3f& q, float max_distance, float* squared_distance = nullptr) const;
 
+  // The same point as nearest (or -1), plus what lets a caller whose query point moves skip the next query:
+  // squared_distance gets its squared distance, others_squared_bound a lower bound on the squared distance
+  // from q to every other point (to every point when -1): the least of max_distance and the distances of the
+  // other points the query looked at. While q has moved by at most m, the same point stays the nearest
+  // (ties excluded) as long as sqrt(squared_distance) + 2 m < sqrt(others_squared_bound).
+  int nearest_with_bound(const Eigen::Vector3f& q, float max_distance, float& squared_distance,
+                         float& others_squared_bound) const;
+
   // Appends to out the indices of all points within radius of q, in increasing index order.
   void radius_search(const Eigen::Vector3f& q, float radius, std::vector<int>& out) const;
+
+  // Whether some point within radius of q satisfies pred(index); stops at the first (in no set order).
+  template <class Pred>
+  bool any_within(const Eigen::Vector3f& q, float radius, Pred&& pred) const;
+  bool any_within(const Eigen::Vector3f& q, float radius) const {
+    return any_within(q, radius, [](int) { return true; });
+  }
 
  private:
   // Two cell layouts, chosen per build. Dense: when the bounding box of the points spans few
@@ -45,9 +79,10 @@ class SpatialHash {
   const CellRange* find_cell(int cx, int cy, int cz) const;
   void build_dense();
   void build_sparse();
-  // Calls visit(slot) for every slot of sorted_points_ that may lie within radius of q.
+  // Calls visit(slot) for every slot of sorted_points_ that may lie within radius of q, until one returns
+  // true (then returns true).
   template <class Visit>
-  void for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const;
+  bool for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const;
 
   float cell_size_;
   float inv_cell_;
@@ -66,5 +101,69 @@ class SpatialHash {
   std::size_t cell_count_ = 0;
   std::size_t table_mask_ = 0;
 };
+
+inline std::array<int, 3> SpatialHash::cell_of(const Eigen::Vector3f& p) const {
+  using spatial_hash_detail::clamped_cell;
+  return {clamped_cell(p.x() * inv_cell_), clamped_cell(p.y() * inv_cell_), clamped_cell(p.z() * inv_cell_)};
+}
+
+template <class Visit>
+inline bool SpatialHash::for_each_candidate(const Eigen::Vector3f& q, float radius, Visit&& visit) const {
+  using spatial_hash_detail::is_finite;
+  if (sorted_points_.empty() || !(radius >= 0.f) || !is_finite(q)) return false;
+  // The small pad keeps points whose float distance rounds down to the radius inside the box.
+  const Eigen::Vector3f r = Eigen::Vector3f::Constant(radius * 1.0001f + 1e-7f);
+  auto lo = cell_of(q - r);
+  auto hi = cell_of(q + r);
+
+  if (dense_) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(lo[a], grid_lo_[a]) - grid_lo_[a];
+      hi[a] = std::min(hi[a], grid_lo_[a] + grid_dims_[a] - 1) - grid_lo_[a];
+      if (lo[a] > hi[a]) return false;
+    }
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const std::size_t row = (static_cast<std::size_t>(cz) * grid_dims_[1] + cy) * grid_dims_[0];
+        const int end = cell_start_[row + hi[0] + 1];
+        for (int s = cell_start_[row + lo[0]]; s < end; ++s) {
+          if (visit(s)) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  const double volume = (static_cast<double>(hi[0]) - lo[0] + 1) * (static_cast<double>(hi[1]) - lo[1] + 1) *
+                        (static_cast<double>(hi[2]) - lo[2] + 1);
+  // A box wider than the occupied cells is cheaper to answer by scanning every point.
+  if (volume > static_cast<double>(cell_count_)) {
+    for (int s = 0; s < static_cast<int>(sorted_points_.size()); ++s) {
+      if (visit(s)) return true;
+    }
+    return false;
+  }
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      for (int cx = lo[0]; cx <= hi[0]; ++cx) {
+        const CellRange* cell = find_cell(cx, cy, cz);
+        if (cell == nullptr) continue;
+        for (int s = cell->begin; s < cell->end; ++s) {
+          if (visit(s)) return true;
+        }
+      }
+    }
+  }
+  return false;
+}
+
+template <class Pred>
+bool SpatialHash::any_within(const Eigen::Vector3f& q, float radius, Pred&& pred) const {
+  const float r2 = radius * radius;
+  return for_each_candidate(q, radius, [&](int s) {
+    return (sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm() <= r2 &&
+           pred(sorted_index_[static_cast<std::size_t>(s)]);
+  });
+}
 
 }  // namespace mfot
