@@ -161,6 +161,7 @@ const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const O
     if (!object.hidden) continue;
     Eigen::Isometry3f relative;
     const Object* carrier = watched_carrier(object, objects, relative);
+    bool gripped_away = false;
     if (carrier == nullptr && options_.seen_through_share > 0.f) {
       HiddenWatch* watch = nullptr;
       carrier = gripping_carrier(object, objects, &watch);
@@ -172,11 +173,17 @@ const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const O
       if (carrier != nullptr && (watch->carrying || taken())) {
         watch->carrying = true;
         relative = watch->relative;
+        gripped_away = true;
       } else {
         carrier = nullptr;
       }
     }
-    if (carrier != nullptr) carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * relative)});
+    if (carrier == nullptr) continue;
+    if (gripped_away && options_.gripped_away == CarryOptions::GrippedAway::kRetire) {
+      carried_.push_back({object.id, carrier->id, object.pose, true});
+    } else {
+      carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * relative), gripped_away});
+    }
   }
   std::sort(carried_.begin(), carried_.end(), [](const Carried& x, const Carried& y) { return x.id < y.id; });
   return carried_;

@@ -111,6 +111,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   frame_.created.clear();
   frame_.registered.clear();
   frame_.retired.clear();
+  gripped_away_.clear();
 
   // 1. estimates
   for (auto& [id, object] : objects_) {
@@ -174,6 +175,9 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                      options_.hidden_occluded_share;
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
+  for (const std::int32_t id : gripped_away_) {
+    if (std::find(frame_.retired.begin(), frame_.retired.end(), id) == frame_.retired.end()) frame_.retired.push_back(id);
+  }
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
@@ -506,6 +510,10 @@ void ObjectManager::carry_hidden(const ColoredCloud& scene) {
     return occlusion.seen_through_share();
   };
   for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch, seen_through)) {
+    if (carried.gripped_away && options_.carry.gripped_away == CarryOptions::GrippedAway::kRetire) {
+      gripped_away_.push_back(carried.id);  // retired in step 4
+      continue;
+    }
     ManagedObject& object = objects_.at(carried.id);
     object.pose = carried.pose;
     object.velocity = pose_difference(previous_poses_.at(carried.id), carried.pose);

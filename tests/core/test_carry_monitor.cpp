@@ -45,6 +45,7 @@ TEST(CarryMonitor, AHiddenObjectFollowsTheObjectItMovedWith) {
     ASSERT_EQ(carried.size(), 1u) << "frame " << frame;
     EXPECT_EQ(carried[0].id, 1);
     EXPECT_EQ(carried[0].carrier, 2);
+    EXPECT_FALSE(carried[0].gripped_away);
     EXPECT_LT(test::translation_error(carried[0].pose, scene.box_at(frame)), 1e-5f) << "frame " << frame;
     EXPECT_LT(test::degrees(test::rotation_error(carried[0].pose, scene.box_at(frame))), 0.01f) << "frame " << frame;
   }
@@ -228,6 +229,7 @@ TEST(CarryMonitor, ABoxCoveredBeforeItIsGrippedFollowsTheHandOnceItsHeldPoseIsSe
     ASSERT_EQ(carried.size(), 1u);
     EXPECT_EQ(carried[0].id, 1);
     EXPECT_EQ(carried[0].carrier, 2);
+    EXPECT_TRUE(carried[0].gripped_away);
     EXPECT_LT(test::translation_error(carried[0].pose, scene.box_at(frame)), 1e-4f);
     EXPECT_LT(test::degrees(test::rotation_error(carried[0].pose, scene.box_at(frame))), 0.01f);
     EXPECT_EQ(asked, frame == 12 ? 2 : 0);  // where it is held and where it would be carried; then no more
@@ -240,6 +242,40 @@ TEST(CarryMonitor, ABoxCoveredBeforeItIsGrippedFollowsTheHandOnceItsHeldPoseIsSe
   const std::vector<CarryMonitor::Object> hidden{
       {1, scene.box_at(16), true}, {2, scene.hand_at(20), false}, {3, scene.tall_box, false}};
   EXPECT_TRUE(monitor.update(hidden, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+}
+
+// With gripped_away kRetire the same grip is reported from the same frame, gripped away by the hand, at
+// the pose where the box is held: the caller retires it rather than carry it by the hand's estimate.
+TEST(CarryMonitor, ABoxGrippedAwayWhileHiddenIsReportedAtItsHeldPoseToRetire) {
+  const CoveredGrip scene;
+  CarryOptions options = seen_through_options();
+  options.gripped_away = CarryOptions::GrippedAway::kRetire;
+  CarryMonitor monitor(options);
+  const auto touch = [](std::int32_t a, std::int32_t b) { return std::min(a, b) == 1; };
+  int frame = 0;
+  const CarryMonitor::SeenThroughTest seen_through = [&](std::int32_t, const Pose& pose) {
+    return seen_through_off(pose, scene.box_at(frame));
+  };
+  for (; frame < 3; ++frame) {
+    const std::vector<CarryMonitor::Object> seen{
+        {1, scene.box_at(frame), false}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
+    EXPECT_TRUE(monitor.update(seen, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+  }
+  for (; frame <= 12; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    const std::vector<CarryMonitor::Object> objects{
+        {1, scene.box_at_rest, true}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
+    const auto& reported = monitor.update(objects, touch, seen_through);
+    if (frame < 12) {
+      EXPECT_TRUE(reported.empty());
+      continue;
+    }
+    ASSERT_EQ(reported.size(), 1u);
+    EXPECT_EQ(reported[0].id, 1);
+    EXPECT_EQ(reported[0].carrier, 2);
+    EXPECT_TRUE(reported[0].gripped_away);
+    EXPECT_LT(test::translation_error(reported[0].pose, scene.box_at_rest), 1e-6f);
+  }
 }
 
 TEST(CarryMonitor, ABoxStillWhereItIsHeldOrNotWhereTheHandWouldCarryItIsNotCarried) {

@@ -668,16 +668,19 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
 // still in view: claimed by block 2, say) while block 2 stays (the grip), and from frame 7 both move 1 cm
 // a frame. No watch saw them move together, but once block 2 is min_motion (2 cm) off its grip, block
 // 1's held place is seen through (the scene moved off it) and where block 2 would carry it is not: it
-// is carried from then on. With seen_through_share 0 it waits where it was held.
-TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatGrippedIt) {
-  for (const bool on : {true, false}) {
-    SCOPED_TRACE(on ? "seen-through carry on" : "seen-through carry off");
+// is carried from then on, or with gripped_away kRetire retired at that frame. With seen_through_share 0
+// it waits where it was held.
+TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatGrippedItOrRetires) {
+  enum class Mode { kOff, kCarry, kRetire };
+  for (const Mode mode : {Mode::kCarry, Mode::kRetire, Mode::kOff}) {
+    SCOPED_TRACE(mode == Mode::kOff ? "seen-through carry off" : mode == Mode::kCarry ? "carried" : "retired");
     BornTogether scene;
     ObjectManagerOptions options;
     options.model_update.alpha = 0.f;
     options.carry.frames = 3;
     options.carry.min_motion = 0.02f;
-    options.carry.seen_through_share = on ? 0.2f : 0.f;
+    options.carry.seen_through_share = mode == Mode::kOff ? 0.f : 0.2f;
+    if (mode == Mode::kRetire) options.carry.gripped_away = CarryOptions::GrippedAway::kRetire;
     options.hidden_occluded_share = 0.6f;
     ObjectManager manager(options, std::make_unique<SplitAtXZero>());
     manager.process(scene.cloud, scene.cluster, {});
@@ -693,12 +696,18 @@ TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatG
       const Eigen::Vector3f step = frame >= 7 ? Eigen::Vector3f(0.01f, 0.f, 0.f) : still;
       offset += step;
       std::map<std::int32_t, ObjectEstimate> estimates = moved(manager, step, std::vector<std::int32_t>{2});
-      estimates.at(1).held = true;
-      manager.process(shifted(scene.cloud, offset), scene.cluster, estimates);
+      if (estimates.contains(1)) estimates.at(1).held = true;
+      const ObjectManagerFrame& result = manager.process(shifted(scene.cloud, offset), scene.cluster, estimates);
+      const bool gripped_away = mode != Mode::kOff && frame >= 8;
+      if (mode == Mode::kRetire) {
+        const bool retired_now = std::find(result.retired.begin(), result.retired.end(), 1) != result.retired.end();
+        EXPECT_EQ(retired_now, frame == 8);
+        EXPECT_EQ(manager.objects().contains(1), frame < 8);
+        if (gripped_away) continue;
+      }
       const ManagedObject& hidden = manager.objects().at(1);
-      const bool carried = on && frame >= 8;
-      EXPECT_EQ(hidden.carried_by, carried ? 2 : 0);
-      const Eigen::Vector3f expected = held_at.translation + (carried ? offset : still);
+      EXPECT_EQ(hidden.carried_by, gripped_away ? 2 : 0);
+      const Eigen::Vector3f expected = held_at.translation + (gripped_away ? offset : still);
       EXPECT_LT((hidden.pose.translation - expected).norm(), 1e-5f);
     }
   }

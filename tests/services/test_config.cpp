@@ -216,7 +216,7 @@ TEST(Config, CarryKeysReachTheManager) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  carry:\n    frames: 7\n    translation: 0.02\n    rotation_deg: 12\n    min_motion: 0.05\n"
       "    min_turn_deg: 20\n    contact_distance: 0.015\n    seen_through_share: 0.35\n"
-      "    carried_seen_through_share: 0.1\n"));
+      "    carried_seen_through_share: 0.1\n    gripped_away: retire\n"));
   EXPECT_EQ(m.manager.carry.frames, 7);
   EXPECT_FLOAT_EQ(m.manager.carry.translation, 0.02f);
   EXPECT_FLOAT_EQ(m.manager.carry.rotation_deg, 12.f);
@@ -225,9 +225,11 @@ TEST(Config, CarryKeysReachTheManager) {
   EXPECT_FLOAT_EQ(m.manager.carry.contact_distance, 0.015f);
   EXPECT_FLOAT_EQ(m.manager.carry.seen_through_share, 0.35f);
   EXPECT_FLOAT_EQ(m.manager.carry.carried_seen_through_share, 0.1f);
+  EXPECT_EQ(m.manager.carry.gripped_away, CarryOptions::GrippedAway::kRetire);
   EXPECT_EQ(load_merger_config(with_defaults("merger:\n  carry:\n    frames: 0\n")).manager.carry.frames, 0);
   for (const std::string key : {"frames: -1", "translation: 0", "rotation_deg: 100", "contact_distance: 0.5",
-                                "seen_through_share: 1.5", "carried_seen_through_share: -0.1", "speed: 1"}) {
+                                "seen_through_share: 1.5", "carried_seen_through_share: -0.1", "gripped_away: drop",
+                                "speed: 1"}) {
     expect_rejected(load_merger_config, "merger:\n  carry:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
 }

@@ -160,13 +160,14 @@ struct ObjectManagerFrame {
 //      with carry.frames > 0, a hidden object that moved with a touching object before it was hidden
 //      follows that object's motion instead (CarryMonitor), and with carry.seen_through_share > 0 so
 //      does one gripped while hidden whose place the scene shows empty (OcclusionTest's
-//      seen_through_share, on this frame's scene); with companion.contact_distance > 0,
+//      seen_through_share, on this frame's scene), or, with carry.gripped_away kRetire, that one is
+//      retired in step 4 (re-identified when it shows again); with companion.contact_distance > 0,
 //      each object's companion is chosen (companion_motion.hpp);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
 //      which an object is hidden (its model mostly occluded by nearer scene points, or carried
-//      while its tracker held it) do not count;
+//      while its tracker held it) do not count; and those gripped away (step 1);
 //   5. unexplained points of clusters that hold segmented points take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
 //      their models by the points they gain (thinned evenly over the whole model when it
@@ -334,6 +335,7 @@ class ObjectManager {
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
+  std::vector<std::int32_t> gripped_away_;  // this frame's objects gripped away while hidden, to retire (carry.gripped_away)
   std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;
   std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> touch_memo_;  // (lower id, higher id, distance)

@@ -225,6 +225,9 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.carry.contact_distance = carry.get<float>("contact_distance", 1e-3f, 0.1f);
   c.manager.carry.seen_through_share = carry.get<float>("seen_through_share", 0.f, 1.f);
   c.manager.carry.carried_seen_through_share = carry.get<float>("carried_seen_through_share", 0.f, 1.f);
+  c.manager.carry.gripped_away = carry.choice("gripped_away", {"carry", "retire"}) == "retire"
+                                     ? CarryOptions::GrippedAway::kRetire
+                                     : CarryOptions::GrippedAway::kCarry;
   carry.finish();
   auto companion = s.section("companion");
   c.manager.companion.contact_distance = companion.get<float>("contact_distance", 0.f, 0.1f);
