@@ -493,6 +493,7 @@ void ObjectManager::forget(std::int32_t id) {
 OcclusionTest& ObjectManager::scene_occlusion(const ColoredCloud& scene) {
   if (!occlusion_scene_set_) {
     occlusion_.set_scene(scene.positions);
+    occlusion_.set_view(view_);
     occlusion_scene_set_ = true;
   }
   return occlusion_;

@@ -32,6 +32,11 @@ void OcclusionOptions::validate() const {
   }
 }
 
+ViewBounds ViewBounds::of_image(int width, int height, float fx, float fy, float cx, float cy) {
+  return {(-0.5f - cx) / fx, (static_cast<float>(width) - 0.5f - cx) / fx, (-0.5f - cy) / fy,
+          (static_cast<float>(height) - 0.5f - cy) / fy};
+}
+
 OcclusionTest::OcclusionTest(const OcclusionOptions& options)
     : options_(validated(options)),
       ray_hash_(options.window),
@@ -109,6 +114,7 @@ float OcclusionTest::seen_through_share() {
   std::size_t seen_through = 0;
   for (const auto& m : own_points_) {
     if (!(m.z() > 0.f)) continue;
+    if (view_ && !view_->contains(m.x() / m.z(), m.y() / m.z())) continue;
     const float behind = m.z() + options_.depth_margin;
     if (!ray_hash_.any_within(ray(m), options_.window,
                               [&](int i) { return !(ray_scene_[static_cast<std::size_t>(i)].z() > behind); })) {

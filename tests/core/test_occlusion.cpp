@@ -124,6 +124,31 @@ TEST(OcclusionTest, TheSceneIsSeenThroughWhereTheModelIsNotAnyMore) {
   EXPECT_EQ(test.seen_through_share(), 0.f);
 }
 
+// Outside the image the camera sees nothing, so nothing there is seen through: with nothing in the scene, the
+// model is seen through where the view covers it (x/z >= 0 here: half the patch) and nowhere once it lies
+// wholly outside; without a view every point counts as in it.
+TEST(OcclusionTest, NothingOutsideTheViewIsSeenThrough) {
+  const std::vector<Eigen::Vector3f> model = facing_patch(1.0f);
+  OcclusionTest test;
+  test.set_scene({});
+  test.set_view(ViewBounds{0.f, 1.f, -1.f, 1.f});
+  test.set_model(model, identity());
+  EXPECT_GT(test.seen_through_share(), 0.4f);
+  EXPECT_LT(test.seen_through_share(), 0.6f);
+  test.set_view(ViewBounds{2.f, 3.f, -1.f, 1.f});
+  EXPECT_EQ(test.seen_through_share(), 0.f);
+  test.set_view(std::nullopt);
+  EXPECT_EQ(test.seen_through_share(), 1.f);
+  // An image's view: pixel edges through the intrinsics.
+  const ViewBounds image = ViewBounds::of_image(640, 480, 500.f, 400.f, 319.5f, 239.5f);
+  EXPECT_FLOAT_EQ(image.x_min, -320.f / 500.f);
+  EXPECT_FLOAT_EQ(image.x_max, 320.f / 500.f);
+  EXPECT_FLOAT_EQ(image.y_min, -240.f / 400.f);
+  EXPECT_FLOAT_EQ(image.y_max, 240.f / 400.f);
+  EXPECT_TRUE(image.contains(0.63f, -0.59f));
+  EXPECT_FALSE(image.contains(0.65f, 0.f));
+}
+
 HypothesisData as_data(const std::vector<Eigen::Vector3f>& points) {
   HypothesisData data;
   for (std::size_t k = 0; k < points.size(); ++k) {

@@ -261,6 +261,15 @@ TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {
     EXPECT_EQ(scene.cloud.colors[i].b, static_cast<std::uint8_t>(3 * i));
     EXPECT_EQ(scene.cluster[i], msg.cluster[i]);
   }
+  EXPECT_FALSE(scene.view.has_value());  // no intrinsics given
+  scene_cloud_t with_intrinsics = msg;
+  with_intrinsics.fx = with_intrinsics.fy = 500.f;
+  with_intrinsics.cx = 319.5f;
+  with_intrinsics.cy = 239.5f;
+  ASSERT_FALSE(scene_from_message(with_intrinsics, scene).has_value());
+  ASSERT_TRUE(scene.view.has_value());
+  EXPECT_FLOAT_EQ(scene.view->x_max, 320.f / 500.f);
+  EXPECT_FLOAT_EQ(scene.view->y_min, -240.f / 500.f);
 }
 
 TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
@@ -278,6 +287,16 @@ TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
     bad_voxel.voxel_size = voxel;
     EXPECT_EQ(scene_from_message(bad_voxel, scene), "voxel_size must be finite and > 0") << voxel;
   }
+  for (const float fy : {-500.f, 0.f, std::numeric_limits<float>::quiet_NaN()}) {
+    auto bad_intrinsics = valid;
+    bad_intrinsics.fx = 500.f;
+    bad_intrinsics.fy = fy;
+    EXPECT_EQ(scene_from_message(bad_intrinsics, scene), "intrinsics must be finite with fx, fy > 0") << fy;
+  }
+  auto negative_size = valid;
+  negative_size.fx = negative_size.fy = 500.f;
+  negative_size.width = -640;
+  EXPECT_EQ(scene_from_message(negative_size, scene), "negative image size");
   auto inf_point = valid;
   inf_point.z[4] = -std::numeric_limits<float>::infinity();
   EXPECT_EQ(scene_from_message(inf_point, scene), "non-finite coordinate at point 4");

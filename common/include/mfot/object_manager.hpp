@@ -199,6 +199,10 @@ class ObjectManager {
   // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
   // (-1 = none); estimates: by object id, for this frame (a non-finite one counts as missing).
   // Throws std::invalid_argument for mismatched sizes or a non-finite scene point.
+  // The image the next scenes come from (nullopt: unknown): the seen-through test of carry step 1 counts
+  // no model point outside it (OcclusionTest::set_view).
+  void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
+
   const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
                                     const std::map<std::int32_t, ObjectEstimate>& estimates);
 
@@ -335,6 +339,7 @@ class ObjectManager {
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
+  std::optional<ViewBounds> view_;
   std::vector<std::int32_t> gripped_away_;  // this frame's objects gripped away while hidden, to retire (carry.gripped_away)
   std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;

@@ -7,6 +7,7 @@
 #include "mfot/types.hpp"
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -28,6 +29,19 @@ struct OcclusionOptions {
   void validate() const;
 };
 
+// The camera's field of view in normalised image coordinates (x/z, y/z): the image's pixel edges.
+struct ViewBounds {
+  float x_min = 0.f;
+  float x_max = 0.f;
+  float y_min = 0.f;
+  float y_max = 0.f;
+  // Pixels [0, width) x [0, height) of an image with these intrinsics (fx, fy > 0).
+  static ViewBounds of_image(int width, int height, float fx, float fy, float cx, float cy);
+  bool contains(float x_over_z, float y_over_z) const {
+    return x_over_z >= x_min && x_over_z <= x_max && y_over_z >= y_min && y_over_z <= y_max;
+  }
+};
+
 // Occlusion of model points by the scene, the camera at the origin looking along +z. A point m
 // is occluded when a scene point lies inside the cone of half-angle `window` around the ray
 // through m and is at least depth_margin closer to the camera (depth along z); a point at
@@ -43,6 +57,9 @@ class OcclusionTest {
   const OcclusionOptions& options() const { return options_; }
 
   void set_scene(std::span<const Eigen::Vector3f> scene_points);  // camera frame
+  // The image the scene came from (nullopt: unknown, every ray counts as in view): a model point outside
+  // it is never seen through, since the camera cannot see past where it does not look.
+  void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
   bool occluded(const Eigen::Vector3f& point);                     // camera frame
   // The model (object frame) moved by pose (object -> camera) for the two questions below; an
   // object's tracking step sets it once and asks both.
@@ -51,10 +68,11 @@ class OcclusionTest {
   // (own_surface_radius), in [0, 1]; 0 for an empty model.
   float occluded_share();
   float occluded_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose);  // set_model + the above
-  // Share of the set model's points in front of the camera with no scene point on their viewing
-  // cone nearer than depth_margin behind them: the view sees past where the model would be (to
-  // what lies behind, or to nothing: a table that preprocessing removed), so the object is not
-  // there. In [0, 1]; 0 for an empty model. A model point's own near side covers its far side.
+  // Share of the set model's points in front of the camera and inside the view (set_view) with no
+  // scene point on their viewing cone nearer than depth_margin behind them: the view sees past where
+  // the model would be (to what lies behind, or to nothing: a table that preprocessing removed), so
+  // the object is not there. In [0, 1] of all its points; 0 for an empty model. A model point's own
+  // near side covers its far side.
   float seen_through_share();
   // The inverse question, asked of hypothesis data: removes from data the points that occlude the
   // set model — points at least depth_margin in front of a model point on their viewing cone and
@@ -69,6 +87,7 @@ class OcclusionTest {
                          std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
 
   OcclusionOptions options_;
+  std::optional<ViewBounds> view_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
   std::vector<Eigen::Vector3f> ray_points_;
   std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point (its depth is z)

@@ -40,6 +40,16 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     return "array sizes disagree with num_points";
   }
   if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
+  // The image's size and intrinsics: all given (the preprocessor sends them) or size or fx 0 (not known).
+  out.view.reset();
+  if (msg.width != 0 && msg.height != 0 && msg.fx != 0.f) {
+    if (msg.width < 0 || msg.height < 0) return "negative image size";
+    if (!(msg.fx > 0.f && msg.fy > 0.f && std::isfinite(msg.fx) && std::isfinite(msg.fy)) || !std::isfinite(msg.cx) ||
+        !std::isfinite(msg.cy)) {
+      return "intrinsics must be finite with fx, fy > 0";
+    }
+    out.view = ViewBounds::of_image(msg.width, msg.height, msg.fx, msg.fy, msg.cx, msg.cy);
+  }
   out.frame_seq = msg.frame_seq;
   out.voxel_size = msg.voxel_size;
   out.capture_utime = msg.capture_utime;

@@ -35,6 +35,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   scene.cloud.positions = cloud.positions;
   scene.cloud.colors = cloud.colors;
   scene.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+  scene.view = ViewBounds::of_image(decoded.width, decoded.height, decoded.fx, decoded.fy, decoded.cx, decoded.cy);
   frame_.times.preprocess_ms = ms_since(t_preprocess);
 
   const auto t_track = Clock::now();
@@ -56,6 +57,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   frame_.times.track_ms = ms_since(t_track);
 
   const auto t_merge = Clock::now();
+  manager_.set_view(scene.view);
   const ObjectManagerFrame& result = manager_.process(scene.cloud, scene.cluster, estimates);
   for (const std::int32_t id : result.retired) trackers_.erase(id);
   const ObjectTrackerOptions tracker_options{options_.tracker.likelihood, options_.tracker.filter,

@@ -6,6 +6,7 @@
 #include "mfot/frame_t.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/object_model_t.hpp"
+#include "mfot/occlusion.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
@@ -25,6 +26,7 @@ struct Scene {
   float voxel_size = 0.f;                // preprocess voxel leaf, metres
   ColoredCloud cloud;                    // camera frame
   std::vector<std::int32_t> cluster;     // per point, -1 = none
+  std::optional<ViewBounds> view;        // the source image's field of view; nullopt: not given (size or fx 0)
 };
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.
