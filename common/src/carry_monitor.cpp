@@ -182,7 +182,8 @@ const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const O
     if (gripped_away && options_.gripped_away == CarryOptions::GrippedAway::kRetire) {
       carried_.push_back({object.id, carrier->id, object.pose, true});
     } else {
-      carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * relative), gripped_away});
+      const Pose carried = Pose::from_isometry(carrier->pose.isometry() * relative);
+      carried_.push_back({object.id, carrier->id, carried, gripped_away});
     }
   }
   std::sort(carried_.begin(), carried_.end(), [](const Carried& x, const Carried& y) { return x.id < y.id; });

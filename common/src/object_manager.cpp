@@ -176,7 +176,9 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
   for (const std::int32_t id : gripped_away_) {
-    if (std::find(frame_.retired.begin(), frame_.retired.end(), id) == frame_.retired.end()) frame_.retired.push_back(id);
+    if (std::find(frame_.retired.begin(), frame_.retired.end(), id) == frame_.retired.end()) {
+      frame_.retired.push_back(id);
+    }
   }
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {

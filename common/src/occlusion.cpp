@@ -134,8 +134,8 @@ std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {
     if (!(p.z() > 0.f)) return false;
     if (options_.own_surface_radius > 0.f && own_hash_.any_within(p, options_.own_surface_radius)) return false;
     const float behind = p.z() + options_.depth_margin;
-    return model_ray_hash_.any_within(ray(p), options_.window,
-                                      [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });
+    return model_ray_hash_.any_within(
+        ray(p), options_.window, [&](int i) { return model_ray_points_[static_cast<std::size_t>(i)].z() > behind; });
   };
   std::size_t kept = 0;
   const std::size_t n = data.points.size();

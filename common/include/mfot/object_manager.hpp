@@ -340,7 +340,8 @@ class ObjectManager {
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
   std::optional<ViewBounds> view_;
-  std::vector<std::int32_t> gripped_away_;  // this frame's objects gripped away while hidden, to retire (carry.gripped_away)
+  // This frame's objects gripped away while hidden, to retire (carry.gripped_away).
+  std::vector<std::int32_t> gripped_away_;
   std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;
   std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> touch_memo_;  // (lower id, higher id, distance)
