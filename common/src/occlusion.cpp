@@ -61,11 +61,18 @@ void OcclusionTest::set_scene(std::span<const Eigen::Vector3f> scene_points) {
   index_rays(scene_points, ray_points_, ray_scene_, ray_hash_);
 }
 
-bool OcclusionTest::occluded(const Eigen::Vector3f& point) {
+template <class IsOccluder>
+bool OcclusionTest::occluded_by(const Eigen::Vector3f& point, IsOccluder&& is_occluder) const {
   if (!(point.z() > 0.f)) return true;
   const float in_front = point.z() - options_.depth_margin;
-  return ray_hash_.any_within(ray(point), options_.window,
-                              [&](int i) { return ray_scene_[static_cast<std::size_t>(i)].z() < in_front; });
+  return ray_hash_.any_within(ray(point), options_.window, [&](int i) {
+    const auto k = static_cast<std::size_t>(i);
+    return ray_scene_[k].z() < in_front && is_occluder(k);
+  });
+}
+
+bool OcclusionTest::occluded(const Eigen::Vector3f& point) {
+  return occluded_by(point, [](std::size_t) { return true; });
 }
 
 void OcclusionTest::set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
@@ -83,23 +90,16 @@ float OcclusionTest::occluded_share() {
   // A scene point lies on the cones of several model points (its near and far side): whether it is the
   // object's own surface is asked of the model's hash once per set model.
   scene_on_own_surface_.assign(ray_scene_.size(), kUnknown);
+  const auto not_own_surface = [&](std::size_t k) {
+    if (options_.own_surface_radius <= 0.f) return true;
+    if (scene_on_own_surface_[k] == kUnknown) {
+      scene_on_own_surface_[k] = own_hash_.any_within(ray_scene_[k], options_.own_surface_radius) ? kYes : kNo;
+    }
+    return scene_on_own_surface_[k] == kNo;
+  };
   std::size_t occluded_points = 0;
   for (const auto& m : own_points_) {
-    if (!(m.z() > 0.f)) {
-      ++occluded_points;
-      continue;
-    }
-    const float in_front = m.z() - options_.depth_margin;
-    const bool occluded = ray_hash_.any_within(ray(m), options_.window, [&](int i) {
-      const auto k = static_cast<std::size_t>(i);
-      if (!(ray_scene_[k].z() < in_front)) return false;
-      if (options_.own_surface_radius <= 0.f) return true;
-      if (scene_on_own_surface_[k] == kUnknown) {
-        scene_on_own_surface_[k] = own_hash_.any_within(ray_scene_[k], options_.own_surface_radius) ? kYes : kNo;
-      }
-      return scene_on_own_surface_[k] == kNo;
-    });
-    if (occluded) ++occluded_points;
+    if (occluded_by(m, not_own_surface)) ++occluded_points;
   }
   return static_cast<float>(occluded_points) / static_cast<float>(own_points_.size());
 }

@@ -196,13 +196,13 @@ class ObjectManager {
 
   const ObjectManagerOptions& options() const { return options_; }
 
-  // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
-  // (-1 = none); estimates: by object id, for this frame (a non-finite one counts as missing).
-  // Throws std::invalid_argument for mismatched sizes or a non-finite scene point.
   // The image the next scenes come from (nullopt: unknown): the seen-through test of carry step 1 counts
   // no model point outside it (OcclusionTest::set_view).
   void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
 
+  // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
+  // (-1 = none); estimates: by object id, for this frame (a non-finite one counts as missing).
+  // Throws std::invalid_argument for mismatched sizes or a non-finite scene point.
   const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
                                     const std::map<std::int32_t, ObjectEstimate>& estimates);
 
