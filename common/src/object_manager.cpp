@@ -66,6 +66,7 @@ void ObjectManagerOptions::validate() const {
   join_split.validate();
   carry.validate();
   companion.validate();
+  refit.validate("ObjectManagerOptions.refit");
   if (max_model_points < min_object_points) {
     throw std::invalid_argument("ObjectManagerOptions.max_model_points must be >= min_object_points (" +
                                 std::to_string(min_object_points) + ")");
@@ -80,6 +81,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       detector_(options.new_objects),
       support_(options.support),
       occlusion_(options.occlusion),
+      refit_(options.refit),
       carry_(options.carry),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)),
       registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {}
@@ -160,8 +162,10 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     object.support = segmentation_.counts[k];
     if (object.stale || object.support == 0 || options_.model_update.alpha <= 0.f) continue;
     object.model = updaters_.at(object.id)->update(object.model, scene, segmentation_.labels, object.id, object.pose);
+    object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));  // mixed: one part
     ++object.version;
   }
+  if (options_.refit.enabled) refit_parts(scene);
 
   // 4. retire objects without support, unless hidden
   hidden_.assign(segmentation_.object_ids.size(), 0);
@@ -183,7 +187,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id), object.model, object.pose};
+      retired_[id] = {frames_,      object.version, color_histogram(object.model), first_seen_.at(id), object.model,
+                      object.pose, object.part_ends};
     }
     forget(id);
   }
@@ -332,10 +337,16 @@ std::vector<std::uint32_t> even_subset(const ColoredCloud& cloud, std::size_t ma
   return chosen;
 }
 
-// The model's spatially even subset of at most max_points (even_subset), features kept with their points.
-ObjectModel thinned(ObjectModel model, std::size_t max_points) {
+// The model's spatially even subset of at most max_points (even_subset), features kept with their points;
+// part_ends (ManagedObject::part_ends, of the model given) become those of the subset, empty parts dropped.
+ObjectModel thinned(ObjectModel model, std::size_t max_points, std::vector<std::uint32_t>& part_ends) {
   const std::vector<std::uint32_t> keep = even_subset(model.cloud, max_points);
   if (keep.size() == model.cloud.size()) return model;
+  for (std::uint32_t& end : part_ends) {  // keep ascends: the points kept before each end
+    end = static_cast<std::uint32_t>(std::lower_bound(keep.begin(), keep.end(), end) - keep.begin());
+  }
+  part_ends.erase(std::unique(part_ends.begin(), part_ends.end()), part_ends.end());
+  if (!part_ends.empty() && part_ends.front() == 0) part_ends.erase(part_ends.begin());
   ObjectModel out;
   out.cloud.reserve(keep.size());
   out.features.reserve(keep.size());
@@ -347,6 +358,22 @@ ObjectModel thinned(ObjectModel model, std::size_t max_points) {
 }
 
 }  // namespace
+
+void ObjectManager::refit_parts(const ColoredCloud& scene) {
+  segmented_.clear();
+  for (const auto& [id, object] : objects_) {
+    if (!object.stale && !object.held && object.carried_by == 0 && object.part_ends.size() > 1) segmented_[id];
+  }
+  if (segmented_.empty()) return;
+  for (std::size_t i = 0; i < scene.size(); ++i) {
+    const auto it = segmented_.find(frame_.labels[i]);
+    if (it != segmented_.end()) it->second.push_back(scene.positions[i]);
+  }
+  for (const auto& [id, points] : segmented_) {
+    ManagedObject& object = objects_.at(id);
+    if (refit_.refit(points, object.model.cloud.positions, object.part_ends, object.pose) > 0) ++object.version;
+  }
+}
 
 void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained) {
   const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
@@ -360,10 +387,11 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
   }
   const auto features = compute_smr(added_colors, options_.smr);
   grown.features.insert(grown.features.end(), features.begin(), features.end());
+  object.part_ends.push_back(static_cast<std::uint32_t>(grown.cloud.size()));
   // Over the size limit the model thins out evenly instead of refusing the new part: an arm
   // reaching further in stays covered, so tau keeps segmenting it where the clustering splits
   // it from the hand (grazing views of an arm pointing at the camera).
-  object.model = thinned(std::move(grown), options_.max_model_points);
+  object.model = thinned(std::move(grown), options_.max_model_points, object.part_ends);
   ++object.version;
 }
 
@@ -429,6 +457,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
     object.model.cloud.push_back(scene.positions[i] - centroid, scene.colors[i]);
   }
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
+  object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   const ColorHistogram histogram = color_histogram(object.model);
   const std::int32_t known = frames_ > 0 ? reidentify(histogram) : 0;
   if (known != 0) {
@@ -474,7 +503,9 @@ bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud&
     whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
   }
   whole.features.insert(whole.features.end(), registration_points_.features.begin(), registration_points_.features.end());
-  object.model = thinned(std::move(whole), options_.max_model_points);
+  object.part_ends = retired.part_ends;
+  object.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));
+  object.model = thinned(std::move(whole), options_.max_model_points, object.part_ends);
   object.pose = found->pose;
   return true;
 }
@@ -609,7 +640,8 @@ void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
   }
   // SMR features depend on colour only: the joined part's stay valid in the kept frame.
   whole.features.insert(whole.features.end(), joined.model.features.begin(), joined.model.features.end());
-  kept.model = thinned(std::move(whole), options_.max_model_points);
+  kept.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));  // placed by the two poses: one part
+  kept.model = thinned(std::move(whole), options_.max_model_points, kept.part_ends);
   ++kept.version;
   kept.support += joined.support;
   for (std::int32_t& label : frame_.labels) {
@@ -869,6 +901,7 @@ void ObjectManager::rebuild_model(ManagedObject& object, const ColoredCloud& sce
   object.model.cloud.clear();
   for (const std::uint32_t k : keep) object.model.cloud.push_back(part.positions[k], part.colors[k]);
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
+  object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   ++object.version;
 }
 

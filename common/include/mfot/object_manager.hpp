@@ -11,6 +11,7 @@
 #include "mfot/model_registration.hpp"
 #include "mfot/object_discovery.hpp"
 #include "mfot/occlusion.hpp"
+#include "mfot/part_refit.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
 #include "mfot/spatial_hash.hpp"
@@ -113,6 +114,9 @@ struct ObjectManagerOptions {
   // Each seen object's companion: the touching object whose last step its filter may follow
   // (companion_motion.hpp; contact_distance 0 = off, the thesis).
   CompanionOptions companion;
+  // Grown parts re-fitted on the first view where a frame shows both well (PartRefit; enabled false =
+  // off, the thesis keeps no parts).
+  PartRefitOptions refit;
   void validate() const;
 };
 
@@ -132,6 +136,10 @@ struct ManagedObject {
   bool stale = false;           // no estimate arrived for the latest frame
   bool held = false;            // its tracker held it in the latest frame (ObjectEstimate::held)
   std::int32_t version = 0;     // incremented on every model change
+  // The model's parts, each placed with one frame's pose, as the end index of each (ascending, the last
+  // one the model's size): part 0 the view that set the object's frame, one part per growth, join or
+  // registration since (PartRefit). One part when the model update mixes points (alpha > 0).
+  std::vector<std::uint32_t> part_ends;
   std::size_t support = 0;      // scene points segmented to it in the latest frame
   std::int64_t created_frame = 0;  // frames_processed() when it was created
   // Hidden this frame and carried by this object (its motion moved the pose; CarryMonitor); 0 = not
@@ -227,6 +235,7 @@ class ObjectManager {
     ColorHistogram first_seen{};   // of its model when created: what reaching in again shows first
     ObjectModel model;             // its last model and pose, for the registration
     Pose pose;
+    std::vector<std::uint32_t> part_ends;  // its model's parts
   };
   static ColorHistogram color_histogram(const ObjectModel& model);
   // The remembered id the histogram matches best, or 0.
@@ -242,6 +251,8 @@ class ObjectManager {
   // Step 5 for one cluster.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
+  // Step 3's re-fit of grown parts (PartRefit) of every object with a new estimate, on its segmented points.
+  void refit_parts(const ColoredCloud& scene);
   // Step 7.
   void join_rigid_parts();
   bool models_touch(const ManagedObject& a, const ManagedObject& b, float distance);
@@ -311,6 +322,8 @@ class ObjectManager {
   NewObjectDetector detector_;
   SupportMonitor support_;
   OcclusionTest occlusion_;
+  PartRefit refit_;
+  std::map<std::int32_t, std::vector<Eigen::Vector3f>> segmented_;  // step 3's points of each object, camera frame
   std::vector<std::uint8_t> hidden_;  // per segmentation_.object_ids entry
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;

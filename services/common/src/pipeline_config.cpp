@@ -3,6 +3,7 @@
 #include "mfot/service/convert.hpp"
 
 #include <algorithm>
+#include <numbers>
 #include <string>
 #include <thread>
 #include <vector>
@@ -10,6 +11,8 @@
 namespace mfot::service {
 
 namespace {
+
+constexpr float kRadiansPerDegree = std::numbers::pi_v<float> / 180.f;
 Eigen::Vector3f vector3(const std::vector<double>& v) {
   return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
 }
@@ -234,6 +237,20 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.companion.min_motion = companion.get<float>("min_motion", 1e-4f, 1.f);
   c.manager.companion.min_turn_deg = companion.get<float>("min_turn_deg", 0.01f, 180.f);
   companion.finish();
+  auto refit = s.section("refit");
+  c.manager.refit.enabled = refit.get<bool>("enabled");
+  c.manager.refit.min_points = refit.get<int>("min_points", 3, 1000000);
+  c.manager.refit.min_spread = refit.get<float>("min_spread", 0.f, 1.f);
+  c.manager.refit.min_coverage = refit.get<float>("min_coverage", 0.f, 1.f);
+  c.manager.refit.min_rotation = refit.get<float>("min_rotation_deg", 0.f, 180.f) * kRadiansPerDegree;
+  c.manager.refit.min_translation = refit.get<float>("min_translation", 0.f, 1.f);
+  c.manager.refit.icp.iterations = refit.get<int>("icp_iterations", 1, 50);
+  c.manager.refit.icp.max_distance = refit.get<float>("icp_max_distance", 1e-4f, 0.1f);
+  c.manager.refit.icp.min_paired_share = refit.get<float>("icp_min_paired_share", 0.f, 1.f);
+  c.manager.refit.icp.max_translation = refit.get<float>("icp_max_translation", 0.f, 1.f);
+  c.manager.refit.icp.max_rotation = refit.get<float>("icp_max_rotation_deg", 0.f, 180.f) * kRadiansPerDegree;
+  c.manager.refit.icp.max_points = refit.get<int>("icp_max_points", 3, 1000000);
+  refit.finish();
   auto world = s.section("world");
   const auto t = world.get_vector("translation", 3);
   const auto q = world.get_vector("rotation", 4);

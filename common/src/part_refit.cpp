@@ -1,0 +1,120 @@
+// Grown parts re-fitted on the first view (steps in the header).
+
+#include "mfot/part_refit.hpp"
+
+#include "mfot/option_range.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace mfot {
+
+void PartRefitOptions::validate(const std::string& owner) const {
+  const auto check = [&](const char* field, double value, double low, double high) {
+    require_in_range(owner.c_str(), field, value, low, high, false);
+  };
+  check("min_points", min_points, 3, 1000000);
+  check("min_spread", min_spread, 0.0, 1.0);
+  check("min_coverage", min_coverage, 0.0, 1.0);
+  check("min_rotation", min_rotation, 0.0, std::numbers::pi);
+  check("min_translation", min_translation, 0.0, 1.0);
+  icp.validate(owner + ".icp");
+  if (icp.iterations == 0) throw std::invalid_argument(owner + ".icp.iterations must be > 0");
+}
+
+namespace {
+
+const PartRefitOptions& validated(const PartRefitOptions& options) {
+  options.validate();
+  return options;
+}
+
+// The second largest standard deviation of the points' positions (0 with fewer than 3).
+float second_spread(std::span<const Eigen::Vector3f> points) {
+  if (points.size() < 3) return 0.f;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& p : points) mean += p.cast<double>();
+  mean /= static_cast<double>(points.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3d d = p.cast<double>() - mean;
+    covariance.noalias() += d * d.transpose();
+  }
+  covariance /= static_cast<double>(points.size());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance, Eigen::EigenvaluesOnly);
+  return static_cast<float>(std::sqrt(std::max(solver.eigenvalues()(1), 0.0)));  // ascending
+}
+
+}  // namespace
+
+// Cells of the pairing distance, as the ICPs' own hashes.
+PartRefit::PartRefit(const PartRefitOptions& options)
+    : options_(validated(options)),
+      model_hash_(options.icp.max_distance),
+      segmented_hash_(options.icp.max_distance),
+      first_view_icp_(options.icp),
+      part_icp_(options.icp) {}
+
+std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::span<Eigen::Vector3f> model,
+                             std::span<const std::uint32_t> part_ends, const Pose& estimate) {
+  if (part_ends.empty() || part_ends.back() != model.size() || !std::is_sorted(part_ends.begin(), part_ends.end())) {
+    throw std::invalid_argument("PartRefit::refit: part_ends must ascend to the model's " +
+                                std::to_string(model.size()) + " points");
+  }
+  if (!options_.enabled || part_ends.size() < 2 || part_ends.front() == 0) return 0;
+  // 1. each scene point to the part of its nearest model point
+  model_hash_.build({model.data(), model.size()});
+  part_scene_.resize(part_ends.size());
+  for (auto& points : part_scene_) points.clear();
+  const Eigen::Isometry3f to_object = estimate.isometry().inverse();
+  segmented_local_.clear();
+  for (const Eigen::Vector3f& p : segmented) segmented_local_.push_back(to_object * p);
+  segmented_hash_.build(segmented_local_);
+  for (std::size_t i = 0; i < segmented.size(); ++i) {
+    const Eigen::Vector3f& p = segmented[i];
+    const int nearest = model_hash_.nearest(segmented_local_[i], options_.icp.max_distance);
+    if (nearest < 0) continue;
+    const auto part = static_cast<std::size_t>(
+        std::upper_bound(part_ends.begin(), part_ends.end(), static_cast<std::uint32_t>(nearest)) - part_ends.begin());
+    part_scene_[part].push_back(p);
+  }
+  // 2. parts seen well enough
+  const auto seen_well = [&](std::size_t part) {
+    if (part_scene_[part].size() < static_cast<std::size_t>(options_.min_points) ||
+        second_spread(part_scene_[part]) < options_.min_spread) {
+      return false;
+    }
+    const std::uint32_t begin = part == 0 ? 0 : part_ends[part - 1];
+    std::size_t covered = 0;
+    for (std::uint32_t k = begin; k < part_ends[part]; ++k) {
+      covered += segmented_hash_.any_within(model[k], options_.icp.max_distance) ? 1 : 0;
+    }
+    return static_cast<float>(covered) >= options_.min_coverage * static_cast<float>(part_ends[part] - begin);
+  };
+  if (!seen_well(0)) return 0;
+  // 3. the pose the first view gives
+  const IcpResult first_view =
+      first_view_icp_.refine(part_scene_[0], model.subspan(0, part_ends[0]), estimate);
+  if (!first_view.refined) return 0;
+  const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
+  // 4.-5. each grown part's misplacement, undone
+  std::size_t moved = 0;
+  for (std::size_t part = 1; part < part_ends.size(); ++part) {
+    if (!seen_well(part)) continue;
+    const std::span<Eigen::Vector3f> points = model.subspan(part_ends[part - 1], part_ends[part] - part_ends[part - 1]);
+    const IcpResult fitted = part_icp_.refine(part_scene_[part], points, first_view.pose);
+    if (!fitted.refined) continue;
+    const Eigen::Isometry3f misplacement = first_view_pose.inverse() * fitted.pose.isometry();
+    const float rotation = Eigen::AngleAxisf(misplacement.linear()).angle();
+    if (rotation < options_.min_rotation && misplacement.translation().norm() < options_.min_translation) continue;
+    for (Eigen::Vector3f& p : points) p = misplacement * p;
+    ++moved;
+  }
+  return moved;
+}
+
+}  // namespace mfot
