@@ -60,9 +60,6 @@ class SeedMatrixTest(unittest.TestCase):
             self.assertNotEqual(poses[0], poses[1])  # other sensor noise and filter draws
 
 
-if __name__ == "__main__":
-    unittest.main()
-
 
 class RocTest(unittest.TestCase):
     def setUp(self):
@@ -108,6 +105,21 @@ class RocTest(unittest.TestCase):
         self.assertEqual(e["rotation_max_deg"], 11.0)  # the can's 40 deg about its axis and the uncompared one left out
         self.assertEqual(self.module.object_errors([])["rotation_worst_median_deg"], 0.0)
 
+    def test_confidence_pairs_join_poses_and_errors_with_the_threshold_given(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            run = Path(tmp)
+            (run / "run").mkdir()
+            (run / "eval").mkdir()
+            (run / "run" / "poses.csv").write_text(
+                "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
+                "0,0,1,0,0,1,0,0,0,1,0.9,0\n0,0,2,0,0,1,0,0,0,1,0.2,0\n1,0,1,0,0,1,0,0,0,1,0.4,0\n")
+            (run / "eval" / "run_pose_errors.csv").write_text(
+                "frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,observable_rotation_deg\n"
+                "0,1,1,1,2,2\n0,101,2,1,30,30\n1,1,1,1,7,7\n2,1,1,1,20,20\n")
+            pairs = self.module.confidence_pairs(run, {101})  # the hand and the frame without a pose left out
+            self.assertEqual(pairs, [(0.9, False), (0.4, False)])
+            self.assertEqual(self.module.confidence_pairs(run, {101}, 5.0), [(0.9, False), (0.4, True)])
+
     def test_auc_of_a_perfect_a_useless_and_an_inverted_confidence(self):
         auc = self.module.roc_auc
         self.assertEqual(auc([(0.1, True), (0.2, True), (0.8, False), (0.9, False)]), 1.0)
@@ -134,3 +146,7 @@ class RocTest(unittest.TestCase):
             self.assertTrue(self.module.plot_roc({"all": self.module.roc_points(pairs)},
                                                  {"all": self.module.roc_auc(pairs)}, path))
             self.assertEqual(path.read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
+
+
+if __name__ == "__main__":
+    unittest.main()
