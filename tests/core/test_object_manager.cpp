@@ -978,16 +978,15 @@ struct BoxGrownOff {
     const auto on_grown_face = [&](const Eigen::Vector3f& local) { return std::abs(local.y() + half.y()) < 1e-4f; };
     const ColoredCloud model_sampling = test::make_test_object(0.f, 0.005f);
     const ColoredCloud scene_sampling = test::make_test_object(0.5f, 0.005f);
-    for (std::size_t k = 0; k < model_sampling.size(); ++k) {
-      if (on_plus_face(model_sampling.positions[k])) first_view.push_back(model_sampling.positions[k] + centre, model_sampling.colors[k]);
-    }
-    for (std::size_t k = 0; k < scene_sampling.size(); ++k) {
-      if (on_plus_face(scene_sampling.positions[k])) whole.push_back(scene_sampling.positions[k] + centre, scene_sampling.colors[k]);
-    }
+    const auto add = [&](const ColoredCloud& from, auto&& on_face, ColoredCloud& to) {
+      for (std::size_t k = 0; k < from.size(); ++k) {
+        if (on_face(from.positions[k])) to.push_back(from.positions[k] + centre, from.colors[k]);
+      }
+    };
+    add(model_sampling, on_plus_face, first_view);
+    add(scene_sampling, on_plus_face, whole);
     grown_from = whole.size();
-    for (std::size_t k = 0; k < scene_sampling.size(); ++k) {
-      if (on_grown_face(scene_sampling.positions[k])) whole.push_back(scene_sampling.positions[k] + centre, scene_sampling.colors[k]);
-    }
+    add(scene_sampling, on_grown_face, whole);
     first_cluster.assign(first_view.size(), 0);
     whole_cluster.assign(whole.size(), 0);
     for (const Eigen::Vector3f& p : first_view.positions) centroid += p;
@@ -1022,7 +1021,8 @@ TEST(ObjectManager, AGrownPartPlacedWithAWrongEstimateIsReFittedOnTheFirstView) 
     EXPECT_EQ(object.part_ends, std::vector<std::uint32_t>{static_cast<std::uint32_t>(object.model.cloud.size())});
     const Pose right = object.pose;
     Pose off = right;
-    off.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(3.f), Eigen::Vector3f(1.f, 0.f, 1.f).normalized()));
+    off.rotation =
+        Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(3.f), Eigen::Vector3f(1.f, 0.f, 1.f).normalized()));
     // The -y face grows with the estimate 3 degrees off: a second part, the model thinned to its limit.
     manager.process(box.whole, box.whole_cluster, {{1, {off, 1.f}}});
     ASSERT_EQ(object.part_ends.size(), 2u);

@@ -34,7 +34,8 @@ struct GrownBox {
   Pose growth_error = test::make_pose(Eigen::Vector3f(0.001f, -0.003f, 0.f), Eigen::Vector3f(0.2f, 0.3f, 1.f),
                                       test::radians(4.f));
   Pose truth{Eigen::Vector3f(0.03f, -0.02f, 0.9f),
-             Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f(1.f, -1.f, 1.f).normalized(), -Eigen::Vector3f::UnitZ())};
+             Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f(1.f, -1.f, 1.f).normalized(),
+                                                -Eigen::Vector3f::UnitZ())};
   std::vector<Eigen::Vector3f> scene;
 
   GrownBox() {
@@ -55,6 +56,18 @@ struct GrownBox {
     part_ends.push_back(static_cast<std::uint32_t>(model.size()));
     scene = test::seen_from_origin(test::make_test_object(0.5f, 0.005f), kSize, truth).positions;
   }
+
+  // The scene points whose place on the box (object frame) shows(local) keeps: the rest hidden.
+  template <typename Shows>
+  std::vector<Eigen::Vector3f> scene_showing(Shows shows) const {
+    const Eigen::Isometry3f to_object = truth.isometry().inverse();
+    std::vector<Eigen::Vector3f> shown;
+    for (const Eigen::Vector3f& p : scene) {
+      if (shows(to_object * p)) shown.push_back(p);
+    }
+    return shown;
+  }
+  static bool on_grown_face(const Eigen::Vector3f& local) { return std::abs(local.y() + 0.5f * kSize.y()) < 1e-3f; }
 
   // The largest distance of a grown point from where it belongs, metres.
   float grown_error() const {
@@ -82,7 +95,8 @@ struct GrownBox {
     to_mean /= static_cast<double>(grown_truth.size());
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
     for (std::size_t k = 0; k < grown_truth.size(); ++k) {
-      covariance += (model[part_ends[0] + k].cast<double>() - from_mean) * (grown_truth[k].cast<double>() - to_mean).transpose();
+      covariance += (model[part_ends[0] + k].cast<double>() - from_mean) *
+                    (grown_truth[k].cast<double>() - to_mean).transpose();
     }
     const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
     Eigen::Matrix3d reflection = Eigen::Matrix3d::Identity();
@@ -127,13 +141,10 @@ TEST(PartRefit, AGrownPartMisplacedByItsGrowthPoseIsMovedBackOntoTheFirstView) {
 TEST(PartRefit, APartSeenOnlyInPartStaysWhereItGrew) {
   GrownBox box;
   // Only the 35 % of the -y face nearest +x shows (the rest hidden): it would slide along itself.
-  const Eigen::Isometry3f to_object = box.truth.isometry().inverse();
-  std::vector<Eigen::Vector3f> scene;
-  for (const Eigen::Vector3f& p : box.scene) {
-    const Eigen::Vector3f local = to_object * p;
-    if (std::abs(local.y() + 0.5f * kSize.y()) < 1e-3f && local.x() < 0.015f) continue;
-    scene.push_back(p);
-  }
+  const std::vector<Eigen::Vector3f> scene =
+      box.scene_showing([](const Eigen::Vector3f& local) {
+        return !GrownBox::on_grown_face(local) || local.x() >= 0.015f;
+      });
   const std::vector<Eigen::Vector3f> model = box.model;
   PartRefitOptions options = enabled();
   options.min_points = 100;  // the 112 points shown are enough, and their spread: their coverage is what is short
@@ -150,13 +161,9 @@ TEST(PartRefit, APartSeenOnlyInPartStaysWhereItGrew) {
 TEST(PartRefit, NothingMovesWithoutTheFirstViewSeenWell) {
   GrownBox box;
   // The first view's faces hidden but for a strip of +x: only the grown face shows well.
-  const Eigen::Isometry3f to_object = box.truth.isometry().inverse();
-  std::vector<Eigen::Vector3f> scene;
-  for (const Eigen::Vector3f& p : box.scene) {
-    const Eigen::Vector3f local = to_object * p;
-    const bool grown_face = std::abs(local.y() + 0.5f * kSize.y()) < 1e-3f;
-    if (grown_face || (std::abs(local.x() - 0.5f * kSize.x()) < 1e-3f && local.z() > 0.03f)) scene.push_back(p);
-  }
+  const std::vector<Eigen::Vector3f> scene = box.scene_showing([](const Eigen::Vector3f& local) {
+    return GrownBox::on_grown_face(local) || (std::abs(local.x() - 0.5f * kSize.x()) < 1e-3f && local.z() > 0.03f);
+  });
   const std::vector<Eigen::Vector3f> model = box.model;
   PartRefit refit(enabled());
   EXPECT_EQ(refit.refit(scene, box.model, box.part_ends, box.truth), 0u);
