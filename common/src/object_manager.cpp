@@ -187,7 +187,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_,      object.version, color_histogram(object.model), first_seen_.at(id), object.model,
+      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id), object.model,
                       object.pose, object.part_ends};
     }
     forget(id);
