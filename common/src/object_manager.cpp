@@ -362,7 +362,9 @@ ObjectModel thinned(ObjectModel model, std::size_t max_points, std::vector<std::
 void ObjectManager::refit_parts(const ColoredCloud& scene) {
   segmented_.clear();
   for (const auto& [id, object] : objects_) {
-    if (!object.stale && !object.held && object.carried_by == 0 && object.part_ends.size() > 1) segmented_[id];
+    if (!object.stale && !object.held && object.carried_by == 0 && object.part_ends.size() > 1) {
+      segmented_.try_emplace(id);
+    }
   }
   if (segmented_.empty()) return;
   for (std::size_t i = 0; i < scene.size(); ++i) {

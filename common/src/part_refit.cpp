@@ -3,11 +3,9 @@
 #include "mfot/part_refit.hpp"
 
 #include "mfot/option_range.hpp"
-
-#include <Eigen/Eigenvalues>
+#include "mfot/point_scatter.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <numbers>
 #include <stdexcept>
 
@@ -36,17 +34,9 @@ const PartRefitOptions& validated(const PartRefitOptions& options) {
 // The second largest standard deviation of the points' positions (0 with fewer than 3).
 float second_spread(std::span<const Eigen::Vector3f> points) {
   if (points.size() < 3) return 0.f;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3f& p : points) mean += p.cast<double>();
-  mean /= static_cast<double>(points.size());
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3f& p : points) {
-    const Eigen::Vector3d d = p.cast<double>() - mean;
-    covariance.noalias() += d * d.transpose();
-  }
-  covariance /= static_cast<double>(points.size());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance, Eigen::EigenvaluesOnly);
-  return static_cast<float>(std::sqrt(std::max(solver.eigenvalues()(1), 0.0)));  // ascending
+  PointScatter scatter;
+  for (const Eigen::Vector3f& p : points) scatter.add(p);
+  return static_cast<float>(scatter.spreads()(1));
 }
 
 }  // namespace
