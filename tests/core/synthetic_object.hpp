@@ -62,23 +62,30 @@ inline ColoredCloud make_colored_box(const Eigen::Vector3f& size, float spacing,
 
 // The default test object: a 10 x 15 x 8 cm box with six face colours, about 1000 points at
 // 8 mm spacing. textured = true splits every face into its colour and white or black.
+inline const Eigen::Vector3f kTestObjectSize(0.10f, 0.15f, 0.08f);  // make_test_object's edge lengths, metres
 inline ColoredCloud make_test_object(float phase = 0.f, float spacing = 0.008f, bool textured = false) {
   static constexpr std::array<Rgb8, 6> kSecond{kWhite, kBlack, kWhite, kBlack, kWhite, kBlack};
-  return make_colored_box(Eigen::Vector3f(0.10f, 0.15f, 0.08f), spacing, kSixColours,
+  return make_colored_box(kTestObjectSize, spacing, kSixColours,
                           textured ? &kSecond : nullptr, phase);
+}
+
+// The outward normal of the face a point of a box cloud (make_colored_box with edge lengths size, object
+// frame) lies on, along the face's axis: +-1 in one coordinate (no sample lies on two faces).
+inline Eigen::Vector3f face_normal(const Eigen::Vector3f& p, const Eigen::Vector3f& size) {
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(std::abs(p[a]) - 0.5f * size[a]) < 1e-4f) normal[a] = p[a] > 0.f ? 1.f : -1.f;
+  }
+  return normal;
 }
 
 // The points of a box cloud (make_colored_box with edge lengths size, object frame) on the faces
 // that a camera at the origin sees when the box is at pose: its near side, camera frame.
 inline ColoredCloud seen_from_origin(const ColoredCloud& box, const Eigen::Vector3f& size, const Pose& pose) {
-  const Eigen::Vector3f half = 0.5f * size;
   ColoredCloud seen;
   for (std::size_t k = 0; k < box.size(); ++k) {
     const Eigen::Vector3f& p = box.positions[k];
-    Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // outward, along the face's axis
-    for (int a = 0; a < 3; ++a) {
-      if (std::abs(std::abs(p[a]) - half[a]) < 1e-4f) normal[a] = p[a] > 0.f ? 1.f : -1.f;
-    }
+    const Eigen::Vector3f normal = face_normal(p, size);
     const Eigen::Vector3f at = pose.isometry() * p;
     if ((pose.rotation * normal).dot(at) < 0.f) seen.push_back(at, box.colors[k]);
   }

@@ -970,12 +970,13 @@ struct BoxGrownOff {
   std::vector<std::int32_t> first_cluster, whole_cluster;
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
   BoxGrownOff() {
-    const Eigen::Vector3f half(0.05f, 0.075f, 0.04f), centre(0.02f, -0.01f, 0.9f);
-    const auto on_plus_face = [&](const Eigen::Vector3f& local) {
-      return std::abs(local.x() - half.x()) < 1e-4f || std::abs(local.y() - half.y()) < 1e-4f ||
-             std::abs(local.z() - half.z()) < 1e-4f;
+    const Eigen::Vector3f centre(0.02f, -0.01f, 0.9f);
+    const auto on_plus_face = [](const Eigen::Vector3f& local) {
+      return test::face_normal(local, test::kTestObjectSize).maxCoeff() > 0.f;  // +x, +y or +z
     };
-    const auto on_grown_face = [&](const Eigen::Vector3f& local) { return std::abs(local.y() + half.y()) < 1e-4f; };
+    const auto on_grown_face = [](const Eigen::Vector3f& local) {
+      return test::face_normal(local, test::kTestObjectSize).y() < 0.f;
+    };
     const ColoredCloud model_sampling = test::make_test_object(0.f, 0.005f);
     const ColoredCloud scene_sampling = test::make_test_object(0.5f, 0.005f);
     const auto add = [&](const ColoredCloud& from, auto&& on_face, ColoredCloud& to) {

@@ -15,7 +15,7 @@
 namespace mfot {
 namespace {
 
-const Eigen::Vector3f kSize(0.10f, 0.15f, 0.08f);
+const Eigen::Vector3f& kSize = test::kTestObjectSize;
 
 PartRefitOptions enabled() {
   PartRefitOptions o;
@@ -40,16 +40,12 @@ struct GrownBox {
 
   GrownBox() {
     const ColoredCloud box = test::make_test_object(0.f, 0.005f);
-    const Eigen::Vector3f half = 0.5f * kSize;
-    const auto on_face = [&](const Eigen::Vector3f& p, int axis, float side) {
-      return std::abs(p[axis] - side * half[axis]) < 1e-4f;
-    };
     for (const Eigen::Vector3f& p : box.positions) {
-      if (on_face(p, 0, 1.f) || on_face(p, 1, 1.f) || on_face(p, 2, 1.f)) model.push_back(p);
+      if (test::face_normal(p, kSize).maxCoeff() > 0.f) model.push_back(p);  // +x, +y or +z
     }
     part_ends.push_back(static_cast<std::uint32_t>(model.size()));
     for (const Eigen::Vector3f& p : box.positions) {
-      if (!on_face(p, 1, -1.f)) continue;
+      if (!on_grown_face(p)) continue;
       grown_truth.push_back(p);
       model.push_back(growth_error.isometry() * p);
     }
@@ -67,7 +63,7 @@ struct GrownBox {
     }
     return shown;
   }
-  static bool on_grown_face(const Eigen::Vector3f& local) { return std::abs(local.y() + 0.5f * kSize.y()) < 1e-3f; }
+  static bool on_grown_face(const Eigen::Vector3f& local) { return test::face_normal(local, kSize).y() < 0.f; }
 
   // The largest distance of a grown point from where it belongs, metres.
   float grown_error() const {
@@ -162,7 +158,7 @@ TEST(PartRefit, NothingMovesWithoutTheFirstViewSeenWell) {
   GrownBox box;
   // The first view's faces hidden but for a strip of +x: only the grown face shows well.
   const std::vector<Eigen::Vector3f> scene = box.scene_showing([](const Eigen::Vector3f& local) {
-    return GrownBox::on_grown_face(local) || (std::abs(local.x() - 0.5f * kSize.x()) < 1e-3f && local.z() > 0.03f);
+    return GrownBox::on_grown_face(local) || (test::face_normal(local, kSize).x() > 0.f && local.z() > 0.03f);
   });
   const std::vector<Eigen::Vector3f> model = box.model;
   PartRefit refit(enabled());

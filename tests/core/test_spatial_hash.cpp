@@ -51,14 +51,23 @@ TEST(SpatialHash, EmptyIndexFindsNothing) {
   EXPECT_TRUE(out.empty());
 }
 
+// 3000 random points in a 30 cm cube indexed in a hash of 1 cm cells, and queries over a 35 cm cube (some fall
+// outside the points' box), each drawn from its own seed.
+struct IndexedCloud {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f> queries;
+  SpatialHash hash{0.01f};
+  IndexedCloud(std::size_t query_count, std::uint64_t point_seed, std::uint64_t query_seed)
+      : points(random_points(3000, 0.3f, point_seed)), queries(random_points(query_count, 0.35f, query_seed)) {
+    hash.build(points);
+  }
+};
+
 class SpatialHashVsBruteForce : public ::testing::TestWithParam<float> {};
 
 TEST_P(SpatialHashVsBruteForce, NearestMatchesBruteForce) {
   const float max_distance = GetParam();
-  const auto points = random_points(3000, 0.3f, 1);
-  const auto queries = random_points(2000, 0.35f, 2);
-  SpatialHash hash(0.01f);
-  hash.build(points);
+  const auto& [points, queries, hash] = IndexedCloud(2000, 1, 2);
   ASSERT_EQ(hash.size(), points.size());
   int found = 0;
   for (const auto& q : queries) {
@@ -77,10 +86,7 @@ TEST_P(SpatialHashVsBruteForce, NearestMatchesBruteForce) {
 
 TEST_P(SpatialHashVsBruteForce, RadiusSearchMatchesBruteForce) {
   const float radius = GetParam();
-  const auto points = random_points(3000, 0.3f, 3);
-  const auto queries = random_points(500, 0.35f, 4);
-  SpatialHash hash(0.01f);
-  hash.build(points);
+  const auto& [points, queries, hash] = IndexedCloud(500, 3, 4);
   std::vector<int> got;
   for (const auto& q : queries) {
     std::vector<int> expected;
@@ -99,10 +105,7 @@ TEST_P(SpatialHashVsBruteForce, RadiusSearchMatchesBruteForce) {
 // than the bound, and after any move the bound allows, still the nearest.
 TEST_P(SpatialHashVsBruteForce, NearestWithBoundKeepsItsPointOverTheMovesItAllows) {
   const float max_distance = GetParam();
-  const auto points = random_points(3000, 0.3f, 5);
-  const auto queries = random_points(2000, 0.35f, 6);
-  SpatialHash hash(0.01f);
-  hash.build(points);
+  const auto& [points, queries, hash] = IndexedCloud(2000, 5, 6);
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<float> unit(-1.f, 1.f);
   int kept = 0;
@@ -137,10 +140,7 @@ TEST_P(SpatialHashVsBruteForce, NearestWithBoundKeepsItsPointOverTheMovesItAllow
 
 TEST_P(SpatialHashVsBruteForce, AnyWithinMatchesBruteForce) {
   const float radius = GetParam();
-  const auto points = random_points(3000, 0.3f, 8);
-  const auto queries = random_points(1000, 0.35f, 9);
-  SpatialHash hash(0.01f);
-  hash.build(points);
+  const auto& [points, queries, hash] = IndexedCloud(1000, 8, 9);
   int found = 0;
   int found_odd = 0;
   for (const auto& q : queries) {
