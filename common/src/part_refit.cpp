@@ -63,7 +63,6 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   const Eigen::Isometry3f to_object = estimate.isometry().inverse();
   segmented_local_.clear();
   for (const Eigen::Vector3f& p : segmented) segmented_local_.push_back(to_object * p);
-  segmented_hash_.build(segmented_local_);
   for (std::size_t i = 0; i < segmented.size(); ++i) {
     const Eigen::Vector3f& p = segmented[i];
     const int nearest = model_hash_.nearest(segmented_local_[i], options_.icp.max_distance);
@@ -72,11 +71,16 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
         std::upper_bound(part_ends.begin(), part_ends.end(), static_cast<std::uint32_t>(nearest)) - part_ends.begin());
     part_scene_[part].push_back(p);
   }
-  // 2. parts seen well enough
+  // 2. parts seen well enough (the coverage index is built once a part gets that far)
+  bool segmented_indexed = false;
   const auto seen_well = [&](std::size_t part) {
     if (part_scene_[part].size() < static_cast<std::size_t>(options_.min_points) ||
         second_spread(part_scene_[part]) < options_.min_spread) {
       return false;
+    }
+    if (!segmented_indexed) {
+      segmented_hash_.build(segmented_local_);
+      segmented_indexed = true;
     }
     const std::uint32_t begin = part == 0 ? 0 : part_ends[part - 1];
     std::size_t covered = 0;
