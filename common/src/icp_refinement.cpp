@@ -171,17 +171,36 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
   return true;
 }
 
+void IcpRefinement::use_model(std::span<const Eigen::Vector3f> model) {
+  // Models change only with a new version (growth, update): the hash is rebuilt only when the points differ.
+  if (std::equal(model.begin(), model.end(), hashed_model_.begin(), hashed_model_.end())) return;
+  hashed_model_.assign(model.begin(), model.end());
+  model_hash_.build(hashed_model_);
+  weigh_anchors();
+}
+
+float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
+                                 const Pose& pose, int max_points) {
+  if (max_points < 3) throw std::invalid_argument("IcpRefinement::unexplained needs max_points >= 3");
+  if (scene.empty() || model.empty()) return 1.f;
+  use_model(model);
+  even_sample(scene, max_points, sample_);
+  const Eigen::Isometry3f to_object = pose.isometry().inverse();
+  const float cap = options_.max_distance * options_.max_distance;
+  double sum = 0.0;
+  for (const Eigen::Vector3f& p : sample_) {
+    float d2 = 0.f;
+    sum += model_hash_.nearest(to_object * p, options_.max_distance, &d2) >= 0 ? std::min(d2 / cap, 1.f) : 1.f;
+  }
+  return static_cast<float>(sum / static_cast<double>(sample_.size()));
+}
+
 IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
                                 const Pose& start) {
   IcpResult result;
   result.pose = start;
   if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
-  // Models change only with a new version (growth, update): the hash is rebuilt only when the points differ.
-  if (!std::equal(model.begin(), model.end(), hashed_model_.begin(), hashed_model_.end())) {
-    hashed_model_.assign(model.begin(), model.end());
-    model_hash_.build(hashed_model_);
-    weigh_anchors();
-  }
+  use_model(model);
   Eigen::Isometry3f pose = start.isometry();
   const int sparse_iterations = options_.iterations - options_.final_iterations;
   if (sparse_iterations > 0) {

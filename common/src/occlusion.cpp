@@ -109,19 +109,37 @@ float OcclusionTest::occluded_share(std::span<const Eigen::Vector3f> model_point
   return occluded_share();
 }
 
+bool OcclusionTest::seen_through(const Eigen::Vector3f& m) const {
+  if (!(m.z() > 0.f)) return false;
+  if (view_ && !view_->contains(m.x() / m.z(), m.y() / m.z())) return false;
+  const float behind = m.z() + options_.depth_margin;
+  return !ray_hash_.any_within(ray(m), options_.window,
+                               [&](int i) { return !(ray_scene_[static_cast<std::size_t>(i)].z() > behind); });
+}
+
 float OcclusionTest::seen_through_share() {
   if (own_points_.empty()) return 0.f;
-  std::size_t seen_through = 0;
-  for (const auto& m : own_points_) {
-    if (!(m.z() > 0.f)) continue;
-    if (view_ && !view_->contains(m.x() / m.z(), m.y() / m.z())) continue;
-    const float behind = m.z() + options_.depth_margin;
-    if (!ray_hash_.any_within(ray(m), options_.window,
-                              [&](int i) { return !(ray_scene_[static_cast<std::size_t>(i)].z() > behind); })) {
-      ++seen_through;
-    }
+  std::size_t seen = 0;
+  for (const auto& m : own_points_) seen += seen_through(m) ? 1 : 0;
+  return static_cast<float>(seen) / static_cast<float>(own_points_.size());
+}
+
+float OcclusionTest::seen_through_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose,
+                                        int max_points) const {
+  if (max_points < 1) throw std::invalid_argument("OcclusionTest::seen_through_share needs max_points >= 1");
+  if (model_points.empty()) return 0.f;
+  Pose unit = pose;
+  unit.rotation.normalize();
+  const Eigen::Isometry3f to_camera = unit.isometry();
+  const std::size_t stride = (model_points.size() + static_cast<std::size_t>(max_points) - 1) /
+                             static_cast<std::size_t>(max_points);
+  std::size_t tested = 0;
+  std::size_t seen = 0;
+  for (std::size_t k = 0; k < model_points.size(); k += stride) {
+    ++tested;
+    seen += seen_through(to_camera * model_points[k]) ? 1 : 0;
   }
-  return static_cast<float>(seen_through) / static_cast<float>(own_points_.size());
+  return static_cast<float>(seen) / static_cast<float>(tested);
 }
 
 std::size_t OcclusionTest::remove_occluders(HypothesisData& data) {

@@ -51,6 +51,19 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.max_hold_frames must be in [1, 100000], got " +
                                 std::to_string(max_hold_frames));
   }
+  if (!(last_pose_check_occluded_share >= 0.f && last_pose_check_occluded_share <= 1.f)) {
+    throw std::invalid_argument("TrackingStepOptions.last_pose_check_occluded_share must be in [0, 1], got " +
+                                std::to_string(last_pose_check_occluded_share));
+  }
+  if (last_pose_check_occluded_share > 0.f && !(hold_occluded_share > 0.f)) {
+    throw std::invalid_argument(
+        "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0: the occluded share is "
+        "measured there");
+  }
+  if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
+    throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
+                                std::to_string(last_pose_check_points));
+  }
 }
 
 TrackingStep::TrackingStep(const TrackingStepOptions& options)
@@ -58,6 +71,12 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
       occlusion_(options.occlusion),
       fit_(options.fit),
       icp_(options.icp),
+      last_pose_icp_([&] {
+        IcpRefinementOptions sparse = options.icp;
+        sparse.max_points = options.last_pose_check_points;
+        sparse.final_iterations = 0;
+        return sparse;
+      }()),
       claimed_hash_(std::max(options.exclude_claimed_radius, 1e-3f)),
       own_(std::max(options.exclude_claimed_radius, 1e-3f)) {}
 
@@ -115,8 +134,32 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
+  if (options_.last_pose_check_occluded_share > 0.f && !result.companion &&
+      result.occluded_share >= options_.last_pose_check_occluded_share) {
+    if (const std::optional<Pose> kept = better_last_pose(model, last, result.estimate)) {
+      result.estimate = filter.replace_estimate(*kept);
+      result.last_pose_kept = true;
+    }
+  }
   result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
   return result;
+}
+
+std::optional<Pose> TrackingStep::better_last_pose(const ObjectModel& model, const Pose& last, const Pose& estimate) {
+  const std::span<const Eigen::Vector3f> points = model.cloud.positions;
+  Pose start = last;
+  if (options_.icp.iterations > 0) {
+    const IcpResult refined = last_pose_icp_.refine(hypothesis_.points, points, last);
+    if (refined.refined) start = refined.pose;
+  }
+  // Both shares count points (scene points not on the model, model points where the view sees past them).
+  const int n = options_.last_pose_check_points;
+  const auto unexplained = [&](const Pose& pose) {
+    return last_pose_icp_.unexplained(hypothesis_.points, points, pose, n) +
+           occlusion_.seen_through_share(points, pose, n);
+  };
+  if (unexplained(start) < unexplained(estimate)) return start;
+  return std::nullopt;
 }
 
 void TrackingStep::hold(ParticleFilter& filter, TrackingStepResult& result) {

@@ -228,6 +228,36 @@ TEST(IcpRefinement, RefusesACorrectionBeyondItsLimits) {
   EXPECT_FALSE(short_icp.refine(box.scene.positions, box.model.positions, start).refined);
 }
 
+// unexplained(): 0 where every scene point lies on the model, growing with the squared misplacement, 1 where
+// none lies within max_distance (or nothing is given), on a stride of the scene points.
+TEST(IcpRefinement, TheUnexplainedShareGrowsWithTheMisplacement) {
+  const ColoredCloud model = test::make_test_object(0.f, 0.005f);
+  const Pose truth = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f::UnitY(), 0.3f);
+  const ColoredCloud scene = test::transformed(model, truth);  // the model's own points: distance 0
+  IcpRefinement icp(iterations(5));
+  const float max_distance = icp.options().max_distance;
+  EXPECT_NEAR(icp.unexplained(scene.positions, model.positions, truth, 2000), 0.f, 1e-6f);
+  float last = 0.f;
+  for (const float shift : {0.0005f, 0.001f, 0.002f}) {  // under half the 5 mm spacing: the nearest is the same point
+    Pose off = truth;
+    off.translation.x() += shift;
+    const float share = icp.unexplained(scene.positions, model.positions, off, 2000);
+    EXPECT_NEAR(share, shift * shift / (max_distance * max_distance), 0.02f) << shift;
+    EXPECT_GT(share, last);
+    last = share;
+  }
+  Pose far = truth;
+  far.translation.z() += 0.5f;
+  EXPECT_EQ(icp.unexplained(scene.positions, model.positions, far, 2000), 1.f);
+  Pose off = truth;
+  off.translation.x() += 0.002f;
+  EXPECT_NEAR(icp.unexplained(scene.positions, model.positions, off, 50),
+              icp.unexplained(scene.positions, model.positions, off, 2000), 0.01f);
+  EXPECT_EQ(icp.unexplained({}, model.positions, truth, 2000), 1.f);
+  EXPECT_EQ(icp.unexplained(scene.positions, {}, truth, 2000), 1.f);
+  EXPECT_THROW(icp.unexplained(scene.positions, model.positions, truth, 2), std::invalid_argument);
+}
+
 TEST(IcpRefinement, InvalidOptionsThrow) {
   const auto bad = [](auto mutate) {
     IcpRefinementOptions o;

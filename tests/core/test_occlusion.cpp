@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <stdexcept>
 #include <vector>
 
@@ -122,6 +123,33 @@ TEST(OcclusionTest, TheSceneIsSeenThroughWhereTheModelIsNotAnyMore) {
   EXPECT_EQ(test.seen_through_share(), 0.f);
   test.set_model({}, identity());
   EXPECT_EQ(test.seen_through_share(), 0.f);
+}
+
+// The posed, strided form compares poses without set_model: equal to set_model + seen_through_share() on every
+// point, a stride's share close to it, and the set model left as it was.
+TEST(OcclusionTest, TheSeenThroughShareOfAPoseNeedsNoSetModel) {
+  std::vector<Eigen::Vector3f> half;
+  for (const auto& p : facing_patch(1.0f)) {
+    if (p.x() < 0.f) half.push_back(p);
+  }
+  const std::vector<Eigen::Vector3f> model = facing_patch(0.f);  // object frame: 1 m ahead at the pose below
+  Pose ahead;
+  ahead.translation = Eigen::Vector3f(0.f, 0.f, 1.f);
+  Pose aside = ahead;
+  aside.translation.x() = -0.2f;  // wholly over the half the scene shows
+  OcclusionTest test;
+  test.set_scene(half);
+  test.set_model(model, ahead);
+  const float full = test.seen_through_share();
+  EXPECT_GT(full, 0.3f);  // the half beyond the scene's edge, less a cone's width along it
+  EXPECT_LT(full, 0.55f);
+  EXPECT_EQ(test.seen_through_share(model, ahead, static_cast<int>(model.size())), full);
+  EXPECT_NEAR(test.seen_through_share(model, ahead, 100), full, 0.05f);
+  EXPECT_EQ(test.seen_through_share(model, aside, 100), 1.f);  // nothing there: a removed table
+  EXPECT_EQ(test.seen_through_share(model, ahead, 1), test.seen_through_share(std::span(model).first(1), ahead, 1));
+  EXPECT_EQ(test.seen_through_share({}, ahead, 10), 0.f);
+  EXPECT_EQ(test.seen_through_share(), full);  // the set model is untouched
+  EXPECT_THROW(test.seen_through_share(model, ahead, 0), std::invalid_argument);
 }
 
 // Outside the image the camera sees nothing, so nothing there is seen through: with nothing in the scene, the

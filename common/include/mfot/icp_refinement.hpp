@@ -85,11 +85,19 @@ class IcpRefinement {
 
   // scene: camera frame; model: object frame; start: object -> camera.
   IcpResult refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model, const Pose& start);
+  // How much of scene (camera frame) the model (object frame) at pose leaves unexplained, in [0, 1]: the mean,
+  // over an even sample of at most max_points (>= 3) scene points, of the squared distance to the nearest model
+  // point over max_distance squared (a point with none within max_distance counts 1); 1 for an empty scene or
+  // model. Uses (and keeps) refine()'s model hash.
+  float unexplained(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model, const Pose& pose,
+                    int max_points);
 
  private:
   IcpRefinementOptions options_;
   SpatialHash model_hash_;
   std::vector<Eigen::Vector3f> hashed_model_;  // the points model_hash_ was built on
+  // Step 1's hash (and anchors) for model, rebuilt only when its points differ from the last ones.
+  void use_model(std::span<const Eigen::Vector3f> model);
   // Runs up to count iterations on one sample (steps 2-3), moving pose; false when too few of it paired.
   bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
                Eigen::Isometry3f& pose, IcpResult& result);

@@ -74,6 +74,9 @@ class OcclusionTest {
   // the object is not there. In [0, 1] of all its points; 0 for an empty model. A model point's own
   // near side covers its far side.
   float seen_through_share();
+  // The same share of an even stride of at most max_points (>= 1) of model_points (object frame) moved by
+  // pose, without set_model (nothing indexed, the set model kept): a cheap comparison of poses.
+  float seen_through_share(std::span<const Eigen::Vector3f> model_points, const Pose& pose, int max_points) const;
   // The inverse question, asked of hypothesis data: removes from data the points that occlude the
   // set model — points at least depth_margin in front of a model point on their viewing cone and
   // farther than own_surface_radius from every model point (a hand in front of the object, not
@@ -87,6 +90,8 @@ class OcclusionTest {
                          std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
   // Whether a scene point at least depth_margin in front of point (camera frame) lies on its viewing cone
   // and is_occluder(its index in ray_scene_) says it counts; a point at z <= 0 is occluded.
+  // Whether the view sees past point (camera frame, in front of the camera and inside the view).
+  bool seen_through(const Eigen::Vector3f& point) const;
   template <class IsOccluder>
   bool occluded_by(const Eigen::Vector3f& point, IsOccluder&& is_occluder) const;
 

@@ -51,7 +51,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
                   std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
-                      (step.icp_refined ? ", ICP-refined" : ""),
+                      (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : ""),
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);

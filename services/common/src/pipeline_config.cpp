@@ -125,6 +125,8 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.icp.final_iterations = s.get<int>("icp_final_iterations", 0, 50);
   c.step.icp.final_points = s.get<int>("icp_final_points", 3, 1000000);
   c.step.icp.anchor_weight = s.get<float>("icp_anchor_weight", 1.f, 1000.f);
+  c.step.last_pose_check_occluded_share = s.get<float>("last_pose_check_occluded_share", 0.f, 1.f);
+  c.step.last_pose_check_points = s.get<int>("last_pose_check_points", 3, 1000000);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
