@@ -60,6 +60,10 @@ void TrackingStepOptions::validate() const {
         "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0: the occluded share is "
         "measured there");
   }
+  if (!(last_pose_check_margin >= 0.f && last_pose_check_margin < 1.f)) {
+    throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
+                                std::to_string(last_pose_check_margin));
+  }
   if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
                                 std::to_string(last_pose_check_points));
@@ -158,7 +162,7 @@ std::optional<Pose> TrackingStep::better_last_pose(const ObjectModel& model, con
     return last_pose_icp_.unexplained(hypothesis_.points, points, pose, n) +
            occlusion_.seen_through_share(points, pose, n);
   };
-  if (unexplained(start) < unexplained(estimate)) return start;
+  if (unexplained(start) < (1.f - options_.last_pose_check_margin) * unexplained(estimate)) return start;
   return std::nullopt;
 }
 

@@ -513,10 +513,14 @@ TEST(TrackingStep, KeepsAPartlyHiddenStillObjectWhereItWasAgainstAModeOffIt) {
     }
     return std::pair(r, kept);
   };
-  const auto [checked, kept] = run(last_pose_checked(0.15f), true, false);
-  EXPECT_GT(kept, 20);
-  EXPECT_LT(test::translation_error(checked.estimate, setup.truth), 0.002f);
-  EXPECT_LT(test::degrees(test::rotation_error(checked.estimate, setup.truth)), 1.f);
+  for (const float margin : {0.f, 0.02f}) {
+    TrackingStepOptions options = last_pose_checked(0.15f);
+    options.last_pose_check_margin = margin;
+    const auto [checked, kept] = run(options, true, false);
+    EXPECT_GT(kept, 20) << "margin " << margin;
+    EXPECT_LT(test::translation_error(checked.estimate, setup.truth), 0.002f) << "margin " << margin;
+    EXPECT_LT(test::degrees(test::rotation_error(checked.estimate, setup.truth)), 1.f) << "margin " << margin;
+  }
   for (const auto& [options, hand, companion] : {std::tuple(last_pose_checked(0.f), true, false),
                                                  std::tuple(last_pose_checked(0.15f), false, false),
                                                  std::tuple(last_pose_checked(0.15f), true, true)}) {
@@ -602,6 +606,9 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.last_pose_check_points = 2;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o.last_pose_check_points = 400;
+  o.last_pose_check_margin = 1.f;  // nothing could be kept
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.last_pose_check_margin = 0.02f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the occluded share is not measured
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);

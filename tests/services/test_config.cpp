@@ -125,6 +125,23 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
   expect_rejected(load_tracker_config, "tracker:\n  hold_min_scored_share: 2\n", "hold_min_scored_share");
 }
 
+TEST(Config, TheLastPoseCheckKeysReachTheStep) {
+  const TrackerConfig c = load_tracker_config(with_defaults(
+      "tracker:\n  last_pose_check_occluded_share: 0.3\n  last_pose_check_points: 250\n  last_pose_check_margin: 0.05\n"));
+  EXPECT_FLOAT_EQ(c.step.last_pose_check_occluded_share, 0.3f);
+  EXPECT_EQ(c.step.last_pose_check_points, 250);
+  EXPECT_FLOAT_EQ(c.step.last_pose_check_margin, 0.05f);
+  // Absent keys: the shipped check (configs/default.yaml), not the option struct's thesis value (off).
+  const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
+  EXPECT_GT(shipped.step.last_pose_check_occluded_share, 0.f);
+  expect_rejected(load_tracker_config, "tracker:\n  last_pose_check_occluded_share: 1.5\n",
+                  "last_pose_check_occluded_share");
+  expect_rejected(load_tracker_config, "tracker:\n  last_pose_check_points: 2\n", "last_pose_check_points");
+  expect_rejected(load_tracker_config, "tracker:\n  last_pose_check_margin: 1\n", "last_pose_check_margin");
+  // The check needs the occluded share, which only the hold measures.
+  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  hold_occluded_share: 0\n")), ConfigError);
+}
+
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
   const std::string keys = "tracker:\n  hypothesis_margin: 0.04\n  exclude_claimed_radius: 0.015\n";
   EXPECT_FLOAT_EQ(load_tracker_config(with_defaults(keys)).step.exclude_claimed_radius, 0.015f);

@@ -82,12 +82,15 @@ struct TrackingStepOptions {
   // frame where at least this share of the model is occluded at the last estimate and no touching object's
   // motion is set (a pushed or gripped object moves), the last estimate is refined too (icp's settings, on at
   // most last_pose_check_points scored points), and it replaces the filter's estimate when it explains the
-  // view better: fewer scored points unexplained (IcpRefinement::unexplained) plus fewer model points seen
-  // through (OcclusionTest::seen_through_share: where the view shows what lies behind), each on at most
-  // last_pose_check_points points. [0, 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the
-  // occluded share is measured there).
+  // view better: its share of scored points unexplained (IcpRefinement::unexplained) plus its share of model
+  // points seen through (OcclusionTest::seen_through_share: where the view shows what lies behind), each on at
+  // most last_pose_check_points points, at least last_pose_check_margin (a share of it) below the estimate's.
+  // [0, 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
   float last_pose_check_occluded_share = 0.f;
   int last_pose_check_points = 400;  // [3, 1000000]
+  // [0, 1): 0 keeps the last pose on any lower charge; a margin leaves the noise-level ties to the filter (a
+  // gripped box about to turn).
+  float last_pose_check_margin = 0.f;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
