@@ -13,6 +13,13 @@ const OcclusionOptions& validated(const OcclusionOptions& options) {
   return options;
 }
 
+// The pose's transform with its rotation normalised (a pose read from a message or averaged may drift off unit).
+Eigen::Isometry3f object_to_camera(const Pose& pose) {
+  Pose unit = pose;
+  unit.rotation.normalize();
+  return unit.isometry();
+}
+
 // A point's camera ray as the cone indexes store it: (x/z, y/z, 0).
 Eigen::Vector3f ray(const Eigen::Vector3f& p) { return {p.x() / p.z(), p.y() / p.z(), 0.f}; }
 
@@ -76,9 +83,7 @@ bool OcclusionTest::occluded(const Eigen::Vector3f& point) {
 }
 
 void OcclusionTest::set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
-  Pose unit = pose;
-  unit.rotation.normalize();
-  const Eigen::Isometry3f to_camera = unit.isometry();
+  const Eigen::Isometry3f to_camera = object_to_camera(pose);
   own_points_.clear();
   for (const auto& p : model_points) own_points_.push_back(to_camera * p);
   if (options_.own_surface_radius > 0.f) own_hash_.build(own_points_);
@@ -128,9 +133,7 @@ float OcclusionTest::seen_through_share(std::span<const Eigen::Vector3f> model_p
                                         int max_points) const {
   if (max_points < 1) throw std::invalid_argument("OcclusionTest::seen_through_share needs max_points >= 1");
   if (model_points.empty()) return 0.f;
-  Pose unit = pose;
-  unit.rotation.normalize();
-  const Eigen::Isometry3f to_camera = unit.isometry();
+  const Eigen::Isometry3f to_camera = object_to_camera(pose);
   const std::size_t stride = (model_points.size() + static_cast<std::size_t>(max_points) - 1) /
                              static_cast<std::size_t>(max_points);
   std::size_t tested = 0;

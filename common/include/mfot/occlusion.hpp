@@ -88,10 +88,10 @@ class OcclusionTest {
   // A cone index: (x/z, y/z, 0) of the points with z > 0 in hash, each with its point in sources.
   static void index_rays(std::span<const Eigen::Vector3f> points, std::vector<Eigen::Vector3f>& rays,
                          std::vector<Eigen::Vector3f>& sources, SpatialHash& hash);
-  // Whether a scene point at least depth_margin in front of point (camera frame) lies on its viewing cone
-  // and is_occluder(its index in ray_scene_) says it counts; a point at z <= 0 is occluded.
   // Whether the view sees past point (camera frame, in front of the camera and inside the view).
   bool seen_through(const Eigen::Vector3f& point) const;
+  // Whether a scene point at least depth_margin in front of point (camera frame) lies on its viewing cone
+  // and is_occluder(its index in ray_scene_) says it counts; a point at z <= 0 is occluded.
   template <class IsOccluder>
   bool occluded_by(const Eigen::Vector3f& point, IsOccluder&& is_occluder) const;
 
