@@ -27,8 +27,6 @@ float colour_agreement(const SmrFeature& a, const SmrFeature& b) {
   return uu > 0.f && vv > 0.f ? dot / std::sqrt(uu * vv) : 0.f;
 }
 
-constexpr std::size_t kScoredPoints = 400;
-
 }  // namespace
 
 void EstimateFitOptions::validate() const {
@@ -78,7 +76,8 @@ float EstimateFit::fit(const HypothesisData& data, const ObjectModel& model, con
   if (claimed_ < static_cast<std::size_t>(options_.min_claimed_points)) return 0.f;
   // An even sample of at most kScoredPoints: the mean moves by well under 0.01 and the cost stays
   // a small share of the filter step's.
-  const std::size_t stride = (claimed_ + kScoredPoints - 1) / kScoredPoints;
+  const std::size_t scored_max = static_cast<std::size_t>(kScoredPoints);
+  const std::size_t stride = (claimed_ + scored_max - 1) / scored_max;
   model_hash_.build(model.cloud.positions);
   double total = 0.0;
   std::size_t scored = 0;

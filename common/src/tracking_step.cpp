@@ -2,6 +2,7 @@
 
 #include "mfot/tracking_step.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,15 @@ void TrackingStepOptions::validate() const {
   if (!(hold_confidence_half_life >= 1.f && hold_confidence_half_life <= 100000.f)) {
     throw std::invalid_argument("TrackingStepOptions.hold_confidence_half_life must be in [1, 100000] frames, got " +
                                 std::to_string(hold_confidence_half_life));
+  }
+  if (!(confidence_seen_through_weight >= 0.f && confidence_seen_through_weight <= 100.f)) {
+    throw std::invalid_argument("TrackingStepOptions.confidence_seen_through_weight must be in [0, 100], got " +
+                                std::to_string(confidence_seen_through_weight));
+  }
+  if (confidence_seen_through_weight > 0.f && !(hold_occluded_share > 0.f)) {
+    throw std::invalid_argument(
+        "TrackingStepOptions.confidence_seen_through_weight needs hold_occluded_share > 0: the scene's rays are "
+        "indexed there");
   }
   if (!(hold_occluded_share >= 0.f && hold_occluded_share <= 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
@@ -145,7 +155,13 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
       result.last_pose_kept = true;
     }
   }
-  result.confidence = last_confidence_ = fit_.fit(hypothesis_, model, model_box, result.estimate);
+  result.fit = fit_.fit(hypothesis_, model, model_box, result.estimate);
+  if (options_.hold_occluded_share > 0.f) {
+    result.seen_through_share =
+        occlusion_.seen_through_share(model.cloud.positions, result.estimate, EstimateFit::kScoredPoints);
+  }
+  result.confidence = last_confidence_ =
+      result.fit * std::max(0.f, 1.f - options_.confidence_seen_through_weight * result.seen_through_share);
   return result;
 }
 

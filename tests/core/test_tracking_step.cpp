@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -560,6 +562,60 @@ TEST(TrackingStep, TheLastPoseCheckFollowsAMovingObject) {
   }
 }
 
+// Step 6: an estimate turned 12 degrees off the box still claims the box's points and most of them lie near its
+// model, so its fit stays high; the corners it turns into free space are seen through, and the weighted share
+// takes them off the confidence. A right estimate is barely seen through; weight 0 publishes the fit alone; a
+// view that leaves the box out sees nothing through (OcclusionTest::set_view), and a held frame decays the
+// lowered confidence.
+TEST(TrackingStep, TheConfidenceDropsWhereTheViewSeesThroughTheEstimate) {
+  const HandOverBox setup;
+  const ColoredCloud scene = setup.scene(-0.05f);  // no hand
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  Pose turned = setup.truth;
+  turned.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(12.f), Eigen::Vector3f::UnitX())) *
+                     turned.rotation).normalized();
+  const auto step_at = [&](const Pose& pose, float weight, const std::optional<ViewBounds>& view) {
+    TrackingStepOptions options = occlusion_aware();
+    options.confidence_seen_through_weight = weight;
+    TrackingStep step(options);
+    step.set_view(view);
+    ParticleFilter filter(filter_options());
+    filter.reset(pose);
+    ModeAt likelihood(pose);  // the estimate stays where it was put
+    return step.track(scene, setup.model, box, filter, likelihood);
+  };
+  const TrackingStepResult right = step_at(setup.truth, 2.f, std::nullopt);
+  const TrackingStepResult wrong = step_at(turned, 2.f, std::nullopt);
+  EXPECT_LT(right.seen_through_share, 0.03f);
+  EXPECT_GT(wrong.seen_through_share, 0.1f);
+  EXPECT_GT(wrong.fit, 0.5f);  // the fit alone tells it poorly
+  EXPECT_NEAR(right.confidence, right.fit * (1.f - 2.f * right.seen_through_share), 1e-5f);
+  EXPECT_NEAR(wrong.confidence, std::max(0.f, wrong.fit * (1.f - 2.f * wrong.seen_through_share)), 1e-5f);
+  EXPECT_GT(right.confidence - wrong.confidence, right.fit - wrong.fit + 0.1f);
+  const TrackingStepResult unweighted = step_at(turned, 0.f, std::nullopt);
+  EXPECT_FLOAT_EQ(unweighted.confidence, unweighted.fit);
+  // An image far to the left of the box: none of its model is in view.
+  const TrackingStepResult out_of_view = step_at(turned, 2.f, ViewBounds{-1.f, -0.5f, -1.f, 1.f});
+  EXPECT_EQ(out_of_view.seen_through_share, 0.f);
+  EXPECT_FLOAT_EQ(out_of_view.confidence, out_of_view.fit);
+  // Hidden the next frame: the lowered confidence is the one that decays.
+  TrackingStepOptions options = occlusion_aware();
+  options.confidence_seen_through_weight = 2.f;
+  TrackingStep step(options);
+  ParticleFilter filter(filter_options());
+  filter.reset(turned);
+  ModeAt likelihood(turned);
+  const TrackingStepResult stepped = step.track(scene, setup.model, box, filter, likelihood);
+  ColoredCloud hidden;  // the hand over all of the box
+  for (float x = -0.1f; x <= 0.1f; x += 0.005f) {
+    for (float y = -0.11f; y <= 0.11f; y += 0.005f) hidden.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
+  }
+  const TrackingStepResult held = step.track(hidden, setup.model, box, filter, likelihood);
+  ASSERT_TRUE(held.held);
+  EXPECT_NEAR(held.confidence, stepped.confidence * std::exp2(-1.f / options.hold_confidence_half_life), 1e-5f);
+  EXPECT_EQ(held.fit, 0.f);
+}
+
 TEST(TrackingStep, InvalidOptionsThrow) {
   TrackingStepOptions o;
   o.hold_occluded_share = 1.5f;
@@ -611,6 +667,15 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.last_pose_check_margin = 0.02f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the occluded share is not measured
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = occlusion_aware();
+  o.confidence_seen_through_weight = -1.f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.confidence_seen_through_weight = 101.f;
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o.confidence_seen_through_weight = 2.f;
+  EXPECT_NO_THROW(TrackingStep{o});
+  o.hold_occluded_share = 0.f;  // the scene's rays are not indexed
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
 }
 

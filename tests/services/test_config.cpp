@@ -142,6 +142,23 @@ TEST(Config, TheLastPoseCheckKeysReachTheStep) {
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  hold_occluded_share: 0\n")), ConfigError);
 }
 
+TEST(Config, TheConfidencesSeenThroughWeightReachesTheStep) {
+  EXPECT_FLOAT_EQ(
+      load_tracker_config(with_defaults("tracker:\n  confidence_seen_through_weight: 3\n")).step.confidence_seen_through_weight,
+      3.f);
+  // Absent: the shipped weight (configs/default.yaml), not the option struct's fit alone.
+  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.confidence_seen_through_weight, 0.f);
+  expect_rejected(load_tracker_config, "tracker:\n  confidence_seen_through_weight: 101\n",
+                  "confidence_seen_through_weight");
+  expect_rejected(load_tracker_config, "tracker:\n  confidence_seen_through_weight: -1\n",
+                  "confidence_seen_through_weight");
+  // The share needs the scene's rays, which only the hold indexes: the thesis's step (no hold) needs both off.
+  expect_rejected(load_tracker_config, "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n",
+                  "confidence_seen_through_weight");
+  EXPECT_NO_THROW(load_tracker_config(with_defaults(
+      "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n  confidence_seen_through_weight: 0\n")));
+}
+
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
   const std::string keys = "tracker:\n  hypothesis_margin: 0.04\n  exclude_claimed_radius: 0.015\n";
   EXPECT_FLOAT_EQ(load_tracker_config(with_defaults(keys)).step.exclude_claimed_radius, 0.015f);

@@ -44,6 +44,9 @@ struct EstimateFitOptions {
 // frames) and the claimed points' buffers.
 class EstimateFit {
  public:
+  // At most this many claimed points are scored (step 3).
+  static constexpr int kScoredPoints = 400;
+
   explicit EstimateFit(const EstimateFitOptions& options = {});
   EstimateFit(const EstimateFit&) = delete;
   EstimateFit& operator=(const EstimateFit&) = delete;

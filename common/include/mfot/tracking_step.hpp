@@ -48,6 +48,12 @@ struct TrackingStepOptions {
   float hold_min_scored_share = 0.f;
   // How the confidence of a stepped estimate is measured (EstimateFit).
   EstimateFitOptions fit;
+  // The published confidence is the fit times (1 - this weight times the share of the model the view sees
+  // through at the estimate, OcclusionTest::seen_through_share), at least 0 (departure: the fit judges only
+  // the points the estimate claims, and a turned or shifted estimate still claims points on the object; the
+  // parts of its model it turns into free space, where the camera sees past them, tell it is wrong). [0, 100];
+  // 0 = the fit alone; > 0 needs hold_occluded_share > 0 (the scene's rays are indexed there).
+  float confidence_seen_through_weight = 0.f;
   // A held frame's confidence is the last stepped frame's halved every this many holds in a row:
   // a hidden object may be moving (carried behind the hand). Frames, [1, 100000].
   float hold_confidence_half_life = 15.f;
@@ -106,8 +112,12 @@ struct TrackingStepResult {
   bool icp_refined = false;             // the estimate was refined on the model's surface (icp)
   bool companion = false;               // stepped with a companion's motion (set_companion_motion)
   bool last_pose_kept = false;          // the refined last estimate replaced the filter's (last_pose_check_*)
-  // EstimateFit of the new estimate on the scored points, in [0, 1]; a held frame's is the last
-  // stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
+  // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
+  float fit = 0.f;
+  // Share of the model the view sees through at the new estimate (0 when held or not measured).
+  float seen_through_share = 0.f;
+  // The fit lowered by the seen-through share (confidence_seen_through_weight), in [0, 1]; a held
+  // frame's is the last stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
   float confidence = 0.f;
 };
 
@@ -129,7 +139,8 @@ struct TrackingStepResult {
 //  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
-//  6. measure the confidence of the new estimate on the same points (EstimateFit).
+//  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
+//     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
 // filter owns its generator). Non-copyable: it owns the occlusion indexes and the hypothesis
 // buffers, reused across frames.
@@ -154,6 +165,9 @@ class TrackingStep {
   // ManagedObject::companion_motion), for the filter's companion_fraction; nullopt = none. Kept until
   // the next call.
   void set_companion_motion(const std::optional<PoseVector>& motion) { companion_motion_ = motion; }
+  // The image the scenes come from (nullopt: unknown): a model point outside it is never seen through
+  // (OcclusionTest::set_view), in step 5c and the confidence. Kept until the next call.
+  void set_view(const std::optional<ViewBounds>& view) { occlusion_.set_view(view); }
   // Forgets the holds in a row (a new object, or its filter reset).
   void reset() {
     held_in_row_ = 0;

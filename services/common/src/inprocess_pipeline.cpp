@@ -44,14 +44,16 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     // What the merger sends with each model (MergerCore::send_model).
     if (claimed_margin_ > 0.f) manager_.claimed_points(id, claimed_margin_, claimed_);
     tracker->set_claimed_points(claimed_);
+    tracker->set_view(scene.view);
     const TrackingStepResult step = tracker->track(scene.cloud);
     estimates[id] = {step.estimate, step.confidence, step.held};
     spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders and {} claimed "
-                  "left out, {} claims near{}, t [{:.3f} {:.3f} {:.3f}]",
+                  "left out, {} claims near{}, fit {:.3f}, seen through {:.3f}, t [{:.3f} {:.3f} {:.3f}]",
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
                   std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
                       (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : ""),
+                  step.fit, step.seen_through_share,
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);

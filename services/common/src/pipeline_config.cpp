@@ -112,6 +112,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
       s.get<float>("own_surface_radius", 0.f, 0.1f);
   c.step.fit = read_fit_options(s);
   c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
+  c.step.confidence_seen_through_weight = s.get<float>("confidence_seen_through_weight", 0.f, 100.f);
   c.step.exclude_claimed_radius = read_claim_radius(s);
   c.step.follow_isolated = s.get<bool>("follow_isolated");
   c.step.isolated_motion.predicted_fraction = s.get<float>("isolated_predicted_fraction", 0.f, 1.f);

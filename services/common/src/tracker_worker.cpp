@@ -108,10 +108,11 @@ int TrackerWorker::step() {
 
 void TrackerWorker::track(const Scene& scene) {
   const auto t0 = clock_();
+  tracker_.set_view(scene.view);
   const TrackingStepResult result = tracker_.track(scene.cloud);
-  spdlog::debug("frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out", scene.frame_seq,
-                tracker_.object_id(), result.held ? "held" : "stepped", result.occluded_share,
-                result.hypothesis_points, result.occluders_removed);
+  spdlog::debug("frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out, fit {:.3f}, seen through "
+                "{:.3f}", scene.frame_seq, tracker_.object_id(), result.held ? "held" : "stepped", result.occluded_share,
+                result.hypothesis_points, result.occluders_removed, result.fit, result.seen_through_share);
   tracker_estimate_t msg{};
   msg.utime = now_utime();
   msg.frame_seq = scene.frame_seq;

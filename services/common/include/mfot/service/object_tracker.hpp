@@ -49,6 +49,8 @@ class ObjectTracker {
   // A touching object's motion given to this object (ManagedObject::companion_motion), for the
   // filter's companion_fraction; nullopt = none.
   void set_companion_motion(const std::optional<PoseVector>& motion) { step_.set_companion_motion(motion); }
+  // The image the scenes come from (Scene::view), for the step's seen-through share; nullopt = unknown.
+  void set_view(const std::optional<ViewBounds>& view) { step_.set_view(view); }
   // Step 2, on the object held (has_object()).
   TrackingStepResult track(const ColoredCloud& scene);
 
