@@ -156,7 +156,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
     }
   }
   result.fit = fit_.fit(hypothesis_, model, model_box, result.estimate);
-  if (options_.hold_occluded_share > 0.f) {
+  if (options_.confidence_seen_through_weight > 0.f) {  // the scene's rays are indexed (validate)
     result.seen_through_share =
         occlusion_.seen_through_share(model.cloud.positions, result.estimate, EstimateFit::kScoredPoints);
   }

@@ -116,9 +116,10 @@ class RocTest(unittest.TestCase):
             (run / "eval" / "run_pose_errors.csv").write_text(
                 "frame,groundtruth_id,predicted_id,translation_mm,rotation_deg,observable_rotation_deg\n"
                 "0,1,1,1,2,2\n0,101,2,1,30,30\n1,1,1,1,7,7\n2,1,1,1,20,20\n")
-            pairs = self.module.confidence_pairs(run, {101})  # the hand and the frame without a pose left out
+            files = (run / "run" / "poses.csv", run / "eval" / "run_pose_errors.csv")
+            pairs = self.module.confidence_pairs(*files, {101})  # the hand and the frame without a pose left out
             self.assertEqual(pairs, [(0.9, False), (0.4, False)])
-            self.assertEqual(self.module.confidence_pairs(run, {101}, 5.0), [(0.9, False), (0.4, True)])
+            self.assertEqual(self.module.confidence_pairs(*files, {101}, 5.0), [(0.9, False), (0.4, True)])
 
     def test_auc_of_a_perfect_a_useless_and_an_inverted_confidence(self):
         auc = self.module.roc_auc

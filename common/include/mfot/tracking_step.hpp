@@ -114,7 +114,8 @@ struct TrackingStepResult {
   bool last_pose_kept = false;          // the refined last estimate replaced the filter's (last_pose_check_*)
   // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
   float fit = 0.f;
-  // Share of the model the view sees through at the new estimate (0 when held or not measured).
+  // Share of the model the view sees through at the new estimate, on an even sample of EstimateFit::kScoredPoints
+  // of it (0 when held, or when confidence_seen_through_weight is 0: not measured).
   float seen_through_share = 0.f;
   // The fit lowered by the seen-through share (confidence_seen_through_weight), in [0, 1]; a held
   // frame's is the last stepped frame's, decaying with hold_confidence_half_life; 0 before the first step.
