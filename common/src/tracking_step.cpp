@@ -70,6 +70,11 @@ void TrackingStepOptions::validate() const {
         "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0: the occluded share is "
         "measured there");
   }
+  if (companion_pose_check && !(hold_occluded_share > 0.f)) {
+    throw std::invalid_argument(
+        "TrackingStepOptions.companion_pose_check needs hold_occluded_share > 0: the seen-through share needs the "
+        "scene's rays, indexed there");
+  }
   if (!(last_pose_check_margin >= 0.f && last_pose_check_margin < 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
                                 std::to_string(last_pose_check_margin));
@@ -150,9 +155,16 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   }
   if (options_.last_pose_check_occluded_share > 0.f && !result.companion &&
       result.occluded_share >= options_.last_pose_check_occluded_share) {
-    if (const std::optional<Pose> kept = better_last_pose(model, last, result.estimate)) {
+    if (const std::optional<Pose> kept = better_start(model, last, result.estimate)) {
       result.estimate = filter.replace_estimate(*kept);
       result.last_pose_kept = true;
+    }
+  }
+  if (options_.companion_pose_check && companion != nullptr &&
+      result.occluded_share >= options_.last_pose_check_occluded_share) {
+    if (const std::optional<Pose> kept = better_start(model, apply_increment(last, *companion), result.estimate)) {
+      result.estimate = filter.replace_estimate(*kept);
+      result.companion_pose_kept = true;
     }
   }
   result.fit = fit_.fit(hypothesis_, model, model_box, result.estimate);
@@ -165,11 +177,11 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   return result;
 }
 
-std::optional<Pose> TrackingStep::better_last_pose(const ObjectModel& model, const Pose& last, const Pose& estimate) {
+std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const Pose& start_pose, const Pose& estimate) {
   const std::span<const Eigen::Vector3f> points = model.cloud.positions;
-  Pose start = last;
+  Pose start = start_pose;
   if (options_.icp.iterations > 0) {
-    const IcpResult refined = last_pose_icp_.refine(hypothesis_.points, points, last);
+    const IcpResult refined = last_pose_icp_.refine(hypothesis_.points, points, start_pose);
     if (refined.refined) start = refined.pose;
   }
   // Both shares count points (scene points not on the model, model points where the view sees past them).

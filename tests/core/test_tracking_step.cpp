@@ -562,6 +562,40 @@ TEST(TrackingStep, TheLastPoseCheckFollowsAMovingObject) {
   }
 }
 
+// Step 5d: the box under the hand has turned 8 degrees since the last frame, as the hand that grips it did, while
+// the filter's mode stays where it was (in `rotate`, its refinement pinned by what little of the box shows). With
+// the check, the last estimate moved by the companion's motion explains the view better and is kept; not with the
+// check off, nor when the companion's motion turns the other way.
+TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
+  const HandOverBox setup;
+  Pose last = setup.truth;
+  last.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(-8.f), Eigen::Vector3f::UnitY())) *
+                   last.rotation).normalized();
+  ModeAt likelihood(last);
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  const PoseVector turn = pose_difference(last, setup.truth);
+  const auto run = [&](bool check, const PoseVector& companion, bool hand) {
+    TrackingStepOptions options = last_pose_checked(0.15f);
+    options.companion_pose_check = check;
+    TrackingStep step(options);
+    step.set_companion_motion(companion);
+    ParticleFilter filter(filter_options());
+    filter.reset(last);
+    return step.track(setup.scene(hand ? 0.01f : -0.05f), setup.model, box, filter, likelihood);
+  };
+  const TrackingStepResult followed = run(true, turn, true);
+  EXPECT_TRUE(followed.companion);
+  EXPECT_TRUE(followed.companion_pose_kept);
+  EXPECT_LT(test::degrees(test::rotation_error(followed.estimate, setup.truth)), 1.f);
+  // Off, the companion turning the other way, or too little of the box occluded (no hand): the filter's estimate.
+  for (const auto& [check, companion, hand] : {std::tuple(false, turn, true), std::tuple(true, PoseVector(-turn), true),
+                                               std::tuple(true, turn, false)}) {
+    const TrackingStepResult stayed = run(check, companion, hand);
+    EXPECT_FALSE(stayed.companion_pose_kept) << "check " << check << ", hand " << hand;
+    EXPECT_GT(test::degrees(test::rotation_error(stayed.estimate, setup.truth)), 6.f) << "check " << check;
+  }
+}
+
 // Step 6: an estimate turned 12 degrees off the box still claims the box's points and most of them lie near its
 // model, so its fit stays high; the corners it turns into free space are seen through, and the weighted share
 // takes them off the confidence. A right estimate is barely seen through; weight 0 publishes the fit alone; a
@@ -676,6 +710,11 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.confidence_seen_through_weight = 2.f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the scene's rays are not indexed
+  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  o = occlusion_aware();
+  o.companion_pose_check = true;
+  EXPECT_NO_THROW(TrackingStep{o});
+  o.hold_occluded_share = 0.f;  // the seen-through share needs the scene's rays
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
 }
 

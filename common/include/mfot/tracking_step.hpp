@@ -97,6 +97,15 @@ struct TrackingStepOptions {
   // [0, 1): 0 keeps the last pose on any lower charge; a margin leaves the noise-level ties to the filter (a
   // gripped box about to turn).
   float last_pose_check_margin = 0.f;
+  // The companion's pose as a second start (departure from the thesis; README "A gripped object started where its
+  // companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at least
+  // last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined too,
+  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points, with
+  // last_pose_check_margin) is lower: a box turned by the hand that grips it shows too little of itself for the
+  // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
+  // the last while the box turned 1.6 degrees a frame). Needs hold_occluded_share > 0. false = the filter's estimate
+  // (thesis); off by default (measured in the README: `apart` seed 2 loses its low box with it).
+  bool companion_pose_check = false;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -112,6 +121,7 @@ struct TrackingStepResult {
   bool icp_refined = false;             // the estimate was refined on the model's surface (icp)
   bool companion = false;               // stepped with a companion's motion (set_companion_motion)
   bool last_pose_kept = false;          // the refined last estimate replaced the filter's (last_pose_check_*)
+  bool companion_pose_kept = false;     // the refined companion's pose replaced the filter's (companion_pose_check)
   // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
   float fit = 0.f;
   // Share of the model the view sees through at the new estimate, on an even sample of EstimateFit::kScoredPoints
@@ -140,6 +150,8 @@ struct TrackingStepResult {
 //  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
+//  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
+//      occluded: the same with the last estimate moved by the companion's motion;
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -167,7 +179,7 @@ class TrackingStep {
   // the next call.
   void set_companion_motion(const std::optional<PoseVector>& motion) { companion_motion_ = motion; }
   // The image the scenes come from (nullopt: unknown): a model point outside it is never seen through
-  // (OcclusionTest::set_view), in step 5c and the confidence. Kept until the next call.
+  // (OcclusionTest::set_view), in steps 5c and 5d and the confidence. Kept until the next call.
   void set_view(const std::optional<ViewBounds>& view) { occlusion_.set_view(view); }
   // Forgets the holds in a row (a new object, or its filter reset).
   void reset() {
@@ -186,9 +198,10 @@ class TrackingStep {
   HypothesisData hypothesis_;
   EstimateFit fit_;
   IcpRefinement icp_;
-  IcpRefinement last_pose_icp_;  // step 5c: icp's settings on at most last_pose_check_points, its own model hash
-  // Step 5c: the refined last estimate when it explains the view better than estimate, else nullopt.
-  std::optional<Pose> better_last_pose(const ObjectModel& model, const Pose& last, const Pose& estimate);
+  IcpRefinement last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
+  // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
+  // estimate, else nullopt.
+  std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate);
   SpatialHash claimed_hash_;                // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
   std::optional<PoseVector> companion_motion_;

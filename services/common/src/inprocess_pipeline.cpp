@@ -52,7 +52,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
                   seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
                   std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
-                      (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : ""),
+                      (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : "") +
+                      (step.companion_pose_kept ? ", companion's pose kept" : ""),
                   step.fit, step.seen_through_share,
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }
