@@ -34,6 +34,14 @@ struct HandOverBox {
     }
     return cloud;
   }
+  // The hand over all of the box: only the hand is in view.
+  static ColoredCloud hand_over_all() {
+    ColoredCloud cloud;
+    for (float x = -0.1f; x <= 0.1f; x += 0.005f) {
+      for (float y = -0.11f; y <= 0.11f; y += 0.005f) cloud.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
+    }
+    return cloud;
+  }
 };
 
 TrackingStepOptions occlusion_aware() {
@@ -331,11 +339,7 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
   ParticleFilter filter(filter_options());
   filter.reset(setup.truth);
 
-  // The hand over all of the box: only the hand is in view.
-  ColoredCloud hidden;
-  for (float x = -0.1f; x <= 0.1f; x += 0.005f) {
-    for (float y = -0.11f; y <= 0.11f; y += 0.005f) hidden.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
-  }
+  const ColoredCloud hidden = setup.hand_over_all();
   const Pose before = filter.estimate();
   const TrackingStepResult r = step.track(hidden, setup.model, box, filter, likelihood);
   EXPECT_TRUE(r.held);
@@ -640,11 +644,7 @@ TEST(TrackingStep, TheConfidenceDropsWhereTheViewSeesThroughTheEstimate) {
   filter.reset(turned);
   ModeAt likelihood(turned);
   const TrackingStepResult stepped = step.track(scene, setup.model, box, filter, likelihood);
-  ColoredCloud hidden;  // the hand over all of the box
-  for (float x = -0.1f; x <= 0.1f; x += 0.005f) {
-    for (float y = -0.11f; y <= 0.11f; y += 0.005f) hidden.push_back(Eigen::Vector3f(x, y, 0.89f), kSkin);
-  }
-  const TrackingStepResult held = step.track(hidden, setup.model, box, filter, likelihood);
+  const TrackingStepResult held = step.track(setup.hand_over_all(), setup.model, box, filter, likelihood);
   ASSERT_TRUE(held.held);
   EXPECT_NEAR(held.confidence, stepped.confidence * std::exp2(-1.f / options.hold_confidence_half_life), 1e-5f);
   EXPECT_EQ(held.fit, 0.f);
