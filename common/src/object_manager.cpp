@@ -114,6 +114,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   frame_.registered.clear();
   frame_.retired.clear();
   gripped_away_.clear();
+  grown_.clear();
 
   // 1. estimates
   for (auto& [id, object] : objects_) {
@@ -231,6 +232,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
     }
   }
+  if (options_.reidentify_grown && !grown_.empty()) reidentify_grown_objects(scene);
   // 7. join parts that move as one, split objects whose parts moved apart
   frame_.joined.clear();
   frame_.split.clear();
@@ -314,6 +316,7 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
     if (young && points.size() >= options_.min_object_points) {
       std::sort(points.begin(), points.end());
       grow_model(object, scene, points);
+      grown_.push_back(id);
     }
   }
 }
@@ -412,10 +415,11 @@ ObjectManager::ColorHistogram ObjectManager::color_histogram(const ObjectModel& 
   return histogram;
 }
 
-std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram) const {
+std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const {
   std::int32_t best = 0;
   float best_similarity = options_.reidentify_similarity;
   for (const auto& [id, retired] : retired_) {  // ascending ids: ties keep the oldest
+    if (retired.retired_frame > retired_by) continue;
     // An object grown while entering (a hand and its arm) may come back showing only what it
     // showed first: either view may match.
     float last = 0.f, first = 0.f;
@@ -461,14 +465,12 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
   object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   const ColorHistogram histogram = color_histogram(object.model);
-  const std::int32_t known = frames_ > 0 ? reidentify(histogram) : 0;
+  const std::int32_t known = frames_ > 0 ? reidentify(histogram, frames_) : 0;
   if (known != 0) {
-    object.id = known;
-    object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
-    if (registration_ && keep_frame(retired_.at(known), scene, free_points, object)) frame_.registered.push_back(known);
-    retired_.erase(known);
+    take_id_back(known, scene, free_points, object);
   } else {
     object.id = next_id_++;
+    born_unknown_.insert(object.id);
   }
   object.support = free_points.size();
   object.confidence = 1.f;
@@ -483,6 +485,43 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   if (discovery_ && options_.discovery.confirm_frames > 0) confirm_born_at_[object.id] = object.pose.translation;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
+}
+
+void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, std::span<const int> points,
+                                 ManagedObject& object) {
+  object.id = known;
+  object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
+  if (registration_ && keep_frame(retired_.at(known), scene, points, object)) frame_.registered.push_back(known);
+  retired_.erase(known);
+}
+
+void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
+  std::vector<int> points;
+  for (const std::int32_t young : grown_) {
+    if (!born_unknown_.contains(young)) continue;
+    const ManagedObject& grown = objects_.at(young);
+    const std::int32_t known = reidentify(color_histogram(grown.model), grown.created_frame);
+    if (known == 0) continue;
+    points.clear();
+    for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
+      if (frame_.labels[i] == young) points.push_back(static_cast<int>(i));
+    }
+    ManagedObject object = grown;  // its model and pose, unless the remembered model registers on its points
+    take_id_back(known, scene, points, object);
+    object.created_frame = frames_;
+    object.confidence = 1.f;
+    for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = known;
+    ModelUpdateOptions update = options_.model_update;
+    update.seed = options_.model_update.seed + static_cast<std::uint64_t>(known);
+    updaters_.emplace(known, std::make_unique<ModelUpdater>(update));
+    first_seen_[known] = first_seen_.at(young);
+    birth_[known] = birth_.at(young);
+    if (confirm_born_at_.contains(young)) confirm_born_at_[known] = confirm_born_at_.at(young);
+    forget(young);
+    frame_.retired.push_back(young);
+    frame_.created.push_back(known);
+    objects_.emplace(known, std::move(object));
+  }
 }
 
 bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
@@ -518,6 +557,7 @@ void ObjectManager::forget(std::int32_t id) {
   objects_.erase(id);
   updaters_.erase(id);
   first_seen_.erase(id);
+  born_unknown_.erase(id);
   birth_.erase(id);
   split_streak_.erase(id);
   split_parts_.erase(id);

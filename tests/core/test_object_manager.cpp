@@ -334,6 +334,82 @@ TEST(ObjectManager, AGrownObjectReachingInAgainIsKnownByItsFirstView) {
   EXPECT_EQ(manager.process(hand, hand_cluster, {}).created, (std::vector<std::int32_t>{1}));
 }
 
+TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
+  // A mostly blue block with a red end leaves the view and is retired. It comes back red end first: that piece's
+  // colours match nothing, so it is a new object. Next frame the whole block shows: the new object grows by the
+  // blue rest, and the grown model matches the remembered one, whose id it takes back.
+  auto block = [](bool whole, float y = 0.f) {
+    ColoredCloud cloud;
+    std::vector<std::int32_t> cluster;
+    add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});  // a steady neighbour, id 1
+    const std::size_t first = cloud.size();
+    add_block(cloud, cluster, 1, {0.1f, y, 1.f}, {whole ? 10 : 2, 14, 6});
+    for (std::size_t i = first; i < cloud.size(); ++i) {
+      cloud.colors[i] = cloud.positions[i].x() < 0.1f + 0.0075f ? Rgb8{200, 30, 35} : Rgb8{35, 70, 200};
+    }
+    return std::make_pair(cloud, cluster);
+  };
+  ColoredCloud neighbour;
+  std::vector<std::int32_t> neighbour_cluster;
+  add_block(neighbour, neighbour_cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  const auto [whole, whole_cluster] = block(true);
+  const auto [piece, piece_cluster] = block(false);
+  auto run = [&](bool grown_match) {
+    ObjectManagerOptions options;
+    options.support.max_frames = 2;
+    options.new_objects.confirm_frames = 1;
+    options.model_update.alpha = 0.f;  // models change by growth alone
+    options.reidentify_register = false;
+    options.reidentify_grown = grown_match;
+    auto manager = std::make_unique<ObjectManager>(options);
+    manager->process(whole, whole_cluster, {});
+    for (int t = 0; t < 2; ++t) manager->process(neighbour, neighbour_cluster, unchanged(*manager));
+    EXPECT_EQ(manager->objects().count(2), 0u);
+    EXPECT_EQ(manager->process(piece, piece_cluster, unchanged(*manager)).created, (std::vector<std::int32_t>{3}));
+    return manager;
+  };
+
+  const auto manager = run(true);
+  const ObjectManagerFrame& grown = manager->process(whole, whole_cluster, unchanged(*manager));
+  EXPECT_EQ(grown.created, (std::vector<std::int32_t>{2}));
+  EXPECT_EQ(grown.retired, (std::vector<std::int32_t>{3}));
+  ASSERT_EQ(manager->objects().count(2), 1u);
+  EXPECT_EQ(manager->objects().count(3), 0u);
+  const ManagedObject& back = manager->objects().at(2);
+  // The grown model: the piece and the rest but what tau segmented next to the piece.
+  const std::size_t piece_points = 2u * 14u * 6u;
+  EXPECT_GT(back.model.cloud.size(), 3 * piece_points);
+  for (std::size_t i = 0; i < whole.size(); ++i) EXPECT_EQ(grown.labels[i], whole_cluster[i] == 0 ? 1 : 2);
+  // It is no longer new: growing again takes no other id.
+  EXPECT_TRUE(manager->process(whole, whole_cluster, unchanged(*manager)).created.empty());
+
+  // Matched at birth only: it stays a new object.
+  const auto at_birth = run(false);
+  const ObjectManagerFrame& kept = at_birth->process(whole, whole_cluster, unchanged(*at_birth));
+  EXPECT_TRUE(kept.created.empty());
+  EXPECT_TRUE(kept.retired.empty());
+  EXPECT_EQ(at_birth->objects().count(3), 1u);
+  EXPECT_EQ(at_birth->objects().at(3).model.cloud.size(), back.model.cloud.size());
+
+  // Only objects retired by the new one's birth: the piece shows elsewhere while the block is still tracked
+  // (unsupported), the block retires a frame later. Two objects seen at once are not one.
+  ObjectManagerOptions options;
+  options.support.max_frames = 2;
+  options.new_objects.confirm_frames = 1;
+  options.model_update.alpha = 0.f;
+  options.reidentify_register = false;
+  options.reidentify_grown = true;
+  ObjectManager later(options);
+  later.process(whole, whole_cluster, {});
+  const auto [moved_piece, moved_piece_cluster] = block(false, 0.2f);
+  EXPECT_EQ(later.process(moved_piece, moved_piece_cluster, unchanged(later)).created, (std::vector<std::int32_t>{3}));
+  EXPECT_EQ(later.process(moved_piece, moved_piece_cluster, unchanged(later)).retired, (std::vector<std::int32_t>{2}));
+  const auto [moved_whole, moved_whole_cluster] = block(true, 0.2f);
+  EXPECT_TRUE(later.process(moved_whole, moved_whole_cluster, unchanged(later)).created.empty());
+  EXPECT_EQ(later.objects().count(3), 1u);
+  EXPECT_GT(later.objects().at(3).model.cloud.size(), 3 * piece_points);  // it grew
+}
+
 TEST(ObjectManager, ANewClusterBecomesAnObjectAfterPersisting) {
   TwoBlocks scene;
   ObjectManagerOptions options;

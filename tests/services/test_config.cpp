@@ -165,6 +165,10 @@ TEST(Config, TheCompanionPoseCheckKeyReachesTheStep) {
   // Absent: the shipped value (configs/default.yaml: off).
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_pose_check);
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: sometimes\n")), ConfigError);
+  EXPECT_FLOAT_EQ(
+      load_tracker_config(with_defaults("tracker:\n  companion_pose_check_margin: 0.2\n")).step.companion_pose_check_margin,
+      0.2f);
+  expect_rejected(load_tracker_config, "tracker:\n  companion_pose_check_margin: 1\n", "companion_pose_check_margin");
 }
 
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
@@ -232,8 +236,10 @@ TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
   EXPECT_FLOAT_EQ(t.step.hold_confidence_half_life, 10.f);
   const MergerConfig m = load_merger_config(with_defaults(
       tracker + "merger:\n  reidentify_register: false\n  reidentify_rotations: 64\n  reidentify_candidates: 2\n"
-                "  reidentify_refine_rounds: 5\n  reidentify_min_fit: 0.6\n"));
+                "  reidentify_refine_rounds: 5\n  reidentify_min_fit: 0.6\n  reidentify_grown: false\n"));
   EXPECT_FALSE(m.manager.reidentify_register);
+  EXPECT_FALSE(m.manager.reidentify_grown);
+  EXPECT_TRUE(load_merger_config(with_defaults("")).manager.reidentify_grown);  // the shipped default
   EXPECT_EQ(m.manager.registration.rotations, 64);
   EXPECT_EQ(m.manager.registration.candidates, 2);
   EXPECT_EQ(m.manager.registration.refine_rounds, 5);

@@ -23,6 +23,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <span>
 #include <tuple>
 #include <vector>
@@ -94,6 +95,12 @@ struct ObjectManagerOptions {
   // left off) and its whole model, the new points added; otherwise, or with false, it starts
   // from a new model and frame under its old id.
   bool reidentify_register = true;
+  // A young object (growth_frames) that took no remembered id when it was born is matched again each frame its model
+  // grows, against the objects retired by its birth: the first piece of a returning object (a corner showing in the
+  // hand that brings it back) may show too little for its colours to match, its grown model matches. On a match it
+  // takes the remembered id back as at birth (retired under its own id, created under the remembered one, its
+  // points registered with reidentify_register). false = at birth only.
+  bool reidentify_grown = false;
   ModelRegistrationOptions registration;
   // An object lacking support whose model, at its pose, is at least this share occluded by
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
@@ -189,7 +196,8 @@ struct ObjectManagerFrame {
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
 //      back, and with reidentify_register its remembered model is registered on the new points
-//      so that it keeps its object frame (else its model and frame are new: the pose jumps once);
+//      so that it keeps its object frame (else its model and frame are new: the pose jumps once); with
+//      reidentify_grown, a young object grown in step 5 that matched none at birth is matched again so;
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
 //      one cluster, discover their points again together: once that disagreed with them in
@@ -238,8 +246,10 @@ class ObjectManager {
     std::vector<std::uint32_t> part_ends;  // its model's parts
   };
   static ColorHistogram color_histogram(const ObjectModel& model);
-  // The remembered id the histogram matches best, or 0.
-  std::int32_t reidentify(const ColorHistogram& histogram) const;
+  // The remembered id, retired in frame retired_by or before, that the histogram matches best, or 0.
+  std::int32_t reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const;
+  // Step 6 (reidentify_grown): the objects of grown_ born unknown that match a remembered one now take its id.
+  void reidentify_grown_objects(const ColoredCloud& scene);
 
   // A cluster's points that no object explains (label 0): only they form new models.
   std::vector<int> unexplained_points(std::span<const int> cluster_points) const;
@@ -307,6 +317,9 @@ class ObjectManager {
   OcclusionTest& scene_occlusion(const ColoredCloud& scene);
   // Step 1's companions.
   void choose_companions();
+  // object (made from points, scene indices) takes the remembered id known back: its version goes on from the
+  // remembered one's and, with the registration, its frame and model (keep_frame); known is remembered no more.
+  void take_id_back(std::int32_t known, const ColoredCloud& scene, std::span<const int> points, ManagedObject& object);
   // Registers retired's model on the points (scene indices) of a re-identified object: on success
   // object gets its pose and the remembered model with the points added, and true is returned.
   bool keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
@@ -329,6 +342,8 @@ class ObjectManager {
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
   std::map<std::int32_t, RetiredObject> retired_;
   std::map<std::int32_t, ColorHistogram> first_seen_;  // per live object
+  std::set<std::int32_t> born_unknown_;  // live objects that took no remembered id at birth (reidentify_grown)
+  std::vector<std::int32_t> grown_;      // objects whose models grew this frame (step 5)
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
   // Step 7 state: siblings share the discovery split they were born from; a pair's relative pose

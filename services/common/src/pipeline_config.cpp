@@ -130,6 +130,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.last_pose_check_points = s.get<int>("last_pose_check_points", 3, 1000000);
   c.step.last_pose_check_margin = s.get<float>("last_pose_check_margin", 0.f, 0.99f);
   c.step.companion_pose_check = s.get<bool>("companion_pose_check");
+  c.step.companion_pose_check_margin = s.get<float>("companion_pose_check_margin", 0.f, 0.99f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
@@ -158,6 +159,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.reidentify_frames = s.get<int>("reidentify_frames", 0, 1000000);
   c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
   c.manager.reidentify_register = s.get<bool>("reidentify_register");
+  c.manager.reidentify_grown = s.get<bool>("reidentify_grown");
   c.manager.registration.rotations = s.get<int>("reidentify_rotations", 1, 100000);
   c.manager.registration.candidates = s.get<int>("reidentify_candidates", 1, 64);
   c.manager.registration.refine_rounds = s.get<int>("reidentify_refine_rounds", 0, 100);
