@@ -113,6 +113,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   frame_.created.clear();
   frame_.registered.clear();
   frame_.retired.clear();
+  frame_.reidentified.clear();
   gripped_away_.clear();
   grown_.clear();
 
@@ -520,6 +521,7 @@ void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
     forget(young);
     frame_.retired.push_back(young);
     frame_.created.push_back(known);
+    frame_.reidentified.emplace_back(young, known);
     objects_.emplace(known, std::move(object));
   }
 }

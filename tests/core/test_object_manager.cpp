@@ -373,6 +373,7 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   const ObjectManagerFrame& grown = manager->process(whole, whole_cluster, unchanged(*manager));
   EXPECT_EQ(grown.created, (std::vector<std::int32_t>{2}));
   EXPECT_EQ(grown.retired, (std::vector<std::int32_t>{3}));
+  EXPECT_EQ(grown.reidentified, (std::vector<std::pair<std::int32_t, std::int32_t>>{{3, 2}}));
   ASSERT_EQ(manager->objects().count(2), 1u);
   EXPECT_EQ(manager->objects().count(3), 0u);
   const ManagedObject& back = manager->objects().at(2);
@@ -388,6 +389,7 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   const ObjectManagerFrame& kept = at_birth->process(whole, whole_cluster, unchanged(*at_birth));
   EXPECT_TRUE(kept.created.empty());
   EXPECT_TRUE(kept.retired.empty());
+  EXPECT_TRUE(kept.reidentified.empty());
   EXPECT_EQ(at_birth->objects().count(3), 1u);
   EXPECT_EQ(at_birth->objects().at(3).model.cloud.size(), back.model.cloud.size());
 

@@ -166,6 +166,9 @@ struct ObjectManagerFrame {
   std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
+  // (young, remembered) this frame: a young object took a remembered id back once grown (reidentify_grown); young is
+  // in retired, remembered in created.
+  std::vector<std::pair<std::int32_t, std::int32_t>> reidentified;
   // (object, sibling) this frame: confirm_discovery gave points of the object to the sibling whose part they lie in.
   std::vector<std::pair<std::int32_t, std::int32_t>> regrouped;
 };

@@ -151,9 +151,16 @@ void MergerCore::finish_frame(Clock::time_point now) {
   for (const auto& [object, sibling] : result.regrouped) {
     spdlog::info("object {} gave a part to object {} (one convex piece with it)", object, sibling);
   }
+  for (const auto& [young, known] : result.reidentified) {
+    spdlog::info("object {} is object {} again (re-identified once its model grew)", young, known);
+  }
   for (const std::int32_t id : result.retired) {
-    const bool joined = std::any_of(result.joined.begin(), result.joined.end(), [id](const auto& j) { return j.second == id; });
-    if (!joined) spdlog::info("object {} retired (no support)", id);
+    const auto is = [id](const auto& pair) { return pair.first == id; };
+    const auto is_joined = [id](const auto& j) { return j.second == id; };
+    if (std::none_of(result.joined.begin(), result.joined.end(), is_joined) &&
+        std::none_of(result.reidentified.begin(), result.reidentified.end(), is)) {
+      spdlog::info("object {} retired (no support)", id);
+    }
     workers_.release(id, now);
     sink_.send_retirement(id, seq);
   }
