@@ -79,10 +79,6 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
                                 std::to_string(last_pose_check_margin));
   }
-  if (!(companion_pose_check_margin >= 0.f && companion_pose_check_margin < 1.f)) {
-    throw std::invalid_argument("TrackingStepOptions.companion_pose_check_margin must be in [0, 1), got " +
-                                std::to_string(companion_pose_check_margin));
-  }
   if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
                                 std::to_string(last_pose_check_points));
@@ -159,15 +155,14 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   }
   if (options_.last_pose_check_occluded_share > 0.f && !result.companion &&
       result.occluded_share >= options_.last_pose_check_occluded_share) {
-    if (const std::optional<Pose> kept = better_start(model, last, result.estimate, options_.last_pose_check_margin)) {
+    if (const std::optional<Pose> kept = better_start(model, last, result.estimate)) {
       result.estimate = filter.replace_estimate(*kept);
       result.last_pose_kept = true;
     }
   }
   if (options_.companion_pose_check && companion != nullptr &&
       result.occluded_share >= options_.last_pose_check_occluded_share) {
-    if (const std::optional<Pose> kept = better_start(model, apply_increment(last, *companion), result.estimate,
-                                                           options_.companion_pose_check_margin)) {
+    if (const std::optional<Pose> kept = better_start(model, apply_increment(last, *companion), result.estimate)) {
       result.estimate = filter.replace_estimate(*kept);
       result.companion_pose_kept = true;
     }
@@ -182,8 +177,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   return result;
 }
 
-std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const Pose& start_pose, const Pose& estimate,
-                                               float margin) {
+std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const Pose& start_pose, const Pose& estimate) {
   const std::span<const Eigen::Vector3f> points = model.cloud.positions;
   Pose start = start_pose;
   if (options_.icp.iterations > 0) {
@@ -196,7 +190,7 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
     return last_pose_icp_.unexplained(hypothesis_.points, points, pose, n) +
            occlusion_.seen_through_share(points, pose, n);
   };
-  if (unexplained(start) < (1.f - margin) * unexplained(estimate)) return start;
+  if (unexplained(start) < (1.f - options_.last_pose_check_margin) * unexplained(estimate)) return start;
   return std::nullopt;
 }
 

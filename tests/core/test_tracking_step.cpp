@@ -578,12 +578,9 @@ TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
   ModeAt likelihood(last);
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   const PoseVector turn = pose_difference(last, setup.truth);
-  const auto run = [&](bool check, const PoseVector& companion, bool hand, float margin = 0.f,
-                       float last_pose_margin = 0.f) {
+  const auto run = [&](bool check, const PoseVector& companion, bool hand) {
     TrackingStepOptions options = last_pose_checked(0.15f);
     options.companion_pose_check = check;
-    options.companion_pose_check_margin = margin;
-    options.last_pose_check_margin = last_pose_margin;
     TrackingStep step(options);
     step.set_companion_motion(companion);
     ParticleFilter filter(filter_options());
@@ -594,10 +591,6 @@ TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
   EXPECT_TRUE(followed.companion);
   EXPECT_TRUE(followed.companion_pose_kept);
   EXPECT_LT(test::degrees(test::rotation_error(followed.estimate, setup.truth)), 1.f);
-  // The check has its own margin: the last pose check's leaves it alone, its own at 0.98 (a charge 50 times
-  // lower needed) refuses it.
-  EXPECT_TRUE(run(true, turn, true, 0.f, 0.98f).companion_pose_kept);
-  EXPECT_FALSE(run(true, turn, true, 0.98f).companion_pose_kept);
   // Off, the companion turning the other way, or too little of the box occluded (no hand): the filter's estimate.
   for (const auto& [check, companion, hand] : {std::tuple(false, turn, true), std::tuple(true, PoseVector(-turn), true),
                                                std::tuple(true, turn, false)}) {
@@ -720,10 +713,6 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o = occlusion_aware();
   o.companion_pose_check = true;
-  EXPECT_NO_THROW(TrackingStep{o});
-  o.companion_pose_check_margin = 1.f;
-  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
-  o.companion_pose_check_margin = 0.1f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the seen-through share needs the scene's rays
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);

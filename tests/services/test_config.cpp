@@ -165,10 +165,6 @@ TEST(Config, TheCompanionPoseCheckKeyReachesTheStep) {
   // Absent: the shipped value (configs/default.yaml: off).
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_pose_check);
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: sometimes\n")), ConfigError);
-  EXPECT_FLOAT_EQ(
-      load_tracker_config(with_defaults("tracker:\n  companion_pose_check_margin: 0.2\n")).step.companion_pose_check_margin,
-      0.2f);
-  expect_rejected(load_tracker_config, "tracker:\n  companion_pose_check_margin: 1\n", "companion_pose_check_margin");
 }
 
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {

@@ -100,16 +100,13 @@ struct TrackingStepOptions {
   // The companion's pose as a second start (departure from the thesis; README "A gripped object started where its
   // companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at least
   // last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined too,
-  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points) is
-  // lower by companion_pose_check_margin: a box turned by the hand that grips it shows too little of itself for the
+  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points, with
+  // last_pose_check_margin) is lower: a box turned by the hand that grips it shows too little of itself for the
   // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
   // the last while the box turned 1.6 degrees a frame). Needs hold_occluded_share > 0. false = the filter's estimate
   // (thesis); configs/default.yaml leaves it off at 100 particles (CPU `apart` seed 2 loses its low box with it) and
   // says to set it with 2000 on a GPU (every held-out target met).
   bool companion_pose_check = false;
-  // [0, 1): the companion's pose is kept only when its charge is at least this share below the estimate's (as
-  // last_pose_check_margin for the last pose).
-  float companion_pose_check_margin = 0.f;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -155,7 +152,7 @@ struct TrackingStepResult {
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
 //  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
-//      occluded: the same with the last estimate moved by the companion's motion (its own margin);
+//      occluded: the same with the last estimate moved by the companion's motion;
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -205,7 +202,7 @@ class TrackingStep {
   IcpRefinement last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
   // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
   // estimate, else nullopt.
-  std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate, float margin);
+  std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate);
   SpatialHash claimed_hash_;                // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
   std::optional<PoseVector> companion_motion_;
