@@ -48,6 +48,10 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.reidentify_similarity must be in (0, 1], got " +
                                 std::to_string(reidentify_similarity));
   }
+  if (!(propagation_min_seed_share >= 0.f && propagation_min_seed_share <= 1.f)) {
+    throw std::invalid_argument("ObjectManagerOptions.propagation_min_seed_share must be in [0, 1], got " +
+                                std::to_string(propagation_min_seed_share));
+  }
   if (!(propagation_radius >= 0.f && propagation_radius <= 0.1f)) {
     throw std::invalid_argument("ObjectManagerOptions.propagation_radius must be in [0, 0.1] m, got " +
                                 std::to_string(propagation_radius));
@@ -281,6 +285,11 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
   wave_.clear();
   for (const int i : cluster_points) (frame_.labels[static_cast<std::size_t>(i)] == 0 ? free_ : wave_).push_back(i);
   if (free_.empty() || wave_.empty()) return;
+  // Seeded too thinly, the cluster is no part of its labelled points' objects (a box a hand put down, a few stray
+  // labels of the hand leaving it): its unexplained points stay free, to become an object of their own.
+  if (static_cast<float>(wave_.size()) < options_.propagation_min_seed_share * static_cast<float>(cluster_points.size())) {
+    return;
+  }
   // Waves: each free point within radius of the last wave's points takes its nearest one's
   // label and joins the next wave, so labels spread along the cluster's surface (hop order),
   // never across a gap wider than radius. Deterministic: points and ties in index order.

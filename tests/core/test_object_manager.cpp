@@ -531,6 +531,7 @@ TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo
   add_block(cloud, cluster, 1, {0.0f, 0.f, 1.f}, {6, 10, 6});     // hand, touching the box
   ObjectManagerOptions options;
   options.growth_frames = 10;
+  options.propagation_min_seed_share = 0.1f;  // the shipped value: box and hand seed 57 % of the cluster with the arm
   ObjectManager manager(options);
   manager.process(cloud, cluster, {});
   ASSERT_EQ(manager.objects().size(), 2u);
@@ -569,6 +570,40 @@ TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo
   add_block(gapped, gapped_cluster, 0, {0.05f, 0.f, 1.f}, {10, 6, 4});
   const auto& apart = short_reach.process(gapped, gapped_cluster, unchanged(short_reach));
   for (std::size_t i = before; i < gapped.size(); ++i) ASSERT_EQ(apart.labels[i], 0);
+}
+
+TEST(ObjectManager, AClusterSeededTooThinlyKeepsItsPointsForAnObjectOfItsOwn) {
+  // A box a hand has put down, the hand leaving: one point of the hand, 1.2 cm from the box, falls in the box's
+  // cluster. Propagated from that one point, the whole box would take the hand's label (and never become an object
+  // again); with propagation_min_seed_share the box's points stay free and become an object.
+  ColoredCloud hand;
+  std::vector<std::int32_t> hand_cluster;
+  add_block(hand, hand_cluster, 0, {-0.1f, 0.f, 1.f}, {10, 10, 6});  // object 1; its last column at x = -0.055
+  ColoredCloud scene = hand;
+  std::vector<std::int32_t> scene_cluster = hand_cluster;
+  const std::size_t first_box = scene.size();
+  add_block(scene, scene_cluster, 1, {-0.043f, 0.f, 1.f}, {10, 10, 6});  // beyond tau, within the propagation radius
+  const std::size_t seed = (9 * 10 + 0) * 6 + 0;                          // the hand's point at x = -0.055, y = z = 0
+  scene_cluster[seed] = 1;
+  for (const float share : {0.f, 0.1f}) {
+    ObjectManagerOptions options;
+    options.new_objects.confirm_frames = 1;
+    options.propagation_min_seed_share = share;
+    ObjectManager manager(options);
+    manager.process(hand, hand_cluster, {});
+    const ObjectManagerFrame& frame = manager.process(scene, scene_cluster, unchanged(manager));
+    EXPECT_EQ(frame.labels[seed], 1);
+    if (share == 0.f) {
+      EXPECT_TRUE(frame.created.empty());
+      for (std::size_t i = first_box; i < scene.size(); ++i) ASSERT_EQ(frame.labels[i], 1) << "box point " << i;
+    } else {
+      EXPECT_EQ(frame.created, (std::vector<std::int32_t>{2}));
+      for (std::size_t i = first_box; i < scene.size(); ++i) ASSERT_EQ(frame.labels[i], 2) << "box point " << i;
+    }
+  }
+  ObjectManagerOptions bad;
+  bad.propagation_min_seed_share = 1.5f;
+  EXPECT_THROW(ObjectManager{bad}, std::invalid_argument);
 }
 
 TEST(ObjectManager, RejectsInvalidOptionsAndInputs) {

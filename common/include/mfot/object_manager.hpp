@@ -80,6 +80,8 @@ struct ObjectManagerOptions {
   // (metres; the preprocess cluster tolerance): the rest of an arm entering the view, what tau
   // missed of an object. 0 disables it (only tau's segmentation labels points).
   float propagation_radius = 0.015f;
+  // ... but only in a cluster at least this share of whose points are segmented. [0, 1]; 0 = any.
+  float propagation_min_seed_share = 0.f;
   // An object younger than this (frames) also grows its model by the points it gains so:
   // objects entering the view (a hand and its arm reaching in from the border) are seen a part
   // at a time. 0 disables growth.

@@ -155,6 +155,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1, 100000);
   c.manager.growth_frames = s.get<int>("growth_frames", 0, 100000);
   c.manager.propagation_radius = s.get<float>("propagation_radius", 0.f, 0.1f);
+  c.manager.propagation_min_seed_share = s.get<float>("propagation_min_seed_share", 0.f, 1.f);
   c.manager.reidentify_frames = s.get<int>("reidentify_frames", 0, 1000000);
   c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
   c.manager.reidentify_register = s.get<bool>("reidentify_register");
