@@ -531,7 +531,7 @@ TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo
   add_block(cloud, cluster, 1, {0.0f, 0.f, 1.f}, {6, 10, 6});     // hand, touching the box
   ObjectManagerOptions options;
   options.growth_frames = 10;
-  options.propagation_min_seed_share = 0.1f;  // the shipped value: box and hand seed 57 % of the cluster with the arm
+  options.propagation_min_seed_share = 0.1f;  // left alone by the guard: box and hand seed 57 % of the cluster with the arm
   ObjectManager manager(options);
   manager.process(cloud, cluster, {});
   ASSERT_EQ(manager.objects().size(), 2u);
