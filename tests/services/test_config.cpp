@@ -236,6 +236,10 @@ TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
   EXPECT_FALSE(m.manager.reidentify_register);
   EXPECT_FALSE(m.manager.reidentify_grown);
   EXPECT_TRUE(load_merger_config(with_defaults("")).manager.reidentify_grown);  // the shipped default
+  EXPECT_FLOAT_EQ(
+      load_merger_config(with_defaults("merger:\n  propagation_min_seed_share: 0.2\n")).manager.propagation_min_seed_share,
+      0.2f);
+  expect_rejected(load_merger_config, "merger:\n  propagation_min_seed_share: 1.5\n", "propagation_min_seed_share");
   EXPECT_EQ(m.manager.registration.rotations, 64);
   EXPECT_EQ(m.manager.registration.candidates, 2);
   EXPECT_EQ(m.manager.registration.refine_rounds, 5);
