@@ -483,16 +483,20 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
     born_unknown_.insert(object.id);
   }
   object.support = free_points.size();
+  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_born_at_[object.id] = object.pose.translation;
+  add_object(std::move(object), free_points, histogram, current_birth_);
+}
+
+void ObjectManager::add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
+                               std::uint64_t birth) {
   object.confidence = 1.f;
   object.created_frame = frames_;
-  for (const int i : free_points) frame_.labels[static_cast<std::size_t>(i)] = object.id;
-
+  for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = object.id;
   ModelUpdateOptions update = options_.model_update;
   update.seed = options_.model_update.seed + static_cast<std::uint64_t>(object.id);
   updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
-  first_seen_[object.id] = histogram;
-  birth_[object.id] = current_birth_;
-  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_born_at_[object.id] = object.pose.translation;
+  first_seen_[object.id] = first_seen;
+  birth_[object.id] = birth;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
 }
@@ -518,20 +522,13 @@ void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
     }
     ManagedObject object = grown;  // its model and pose, unless the remembered model registers on its points
     take_id_back(known, scene, points, object);
-    object.created_frame = frames_;
-    object.confidence = 1.f;
-    for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = known;
-    ModelUpdateOptions update = options_.model_update;
-    update.seed = options_.model_update.seed + static_cast<std::uint64_t>(known);
-    updaters_.emplace(known, std::make_unique<ModelUpdater>(update));
-    first_seen_[known] = first_seen_.at(young);
-    birth_[known] = birth_.at(young);
+    const ColorHistogram first_seen = first_seen_.at(young);
+    const std::uint64_t birth = birth_.at(young);
     if (confirm_born_at_.contains(young)) confirm_born_at_[known] = confirm_born_at_.at(young);
     forget(young);
     frame_.retired.push_back(young);
-    frame_.created.push_back(known);
     frame_.reidentified.emplace_back(young, known);
-    objects_.emplace(known, std::move(object));
+    add_object(std::move(object), points, first_seen, birth);
   }
 }
 

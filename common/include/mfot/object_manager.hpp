@@ -261,6 +261,9 @@ class ObjectManager {
   // A cluster's unexplained points, split by the discovery when there is one, become objects.
   void create_objects(const ColoredCloud& scene, std::span<const int> free_points);
   void create_object(const ColoredCloud& scene, std::span<const int> points);
+  // A created object (create_object, or taking a remembered id back once grown) joins this frame: confidence 1,
+  // created now, its points (scene indices) labelled, its seeded model updater, its first view's histogram, its birth.
+  void add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen, std::uint64_t birth);
   // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster.

@@ -155,10 +155,10 @@ void MergerCore::finish_frame(Clock::time_point now) {
     spdlog::info("object {} is object {} again (re-identified once its model grew)", young, known);
   }
   for (const std::int32_t id : result.retired) {
-    const auto is = [id](const auto& pair) { return pair.first == id; };
-    const auto is_joined = [id](const auto& j) { return j.second == id; };
-    if (std::none_of(result.joined.begin(), result.joined.end(), is_joined) &&
-        std::none_of(result.reidentified.begin(), result.reidentified.end(), is)) {
+    const auto joined_away = [id](const auto& j) { return j.second == id; };
+    const auto young_reidentified = [id](const auto& r) { return r.first == id; };
+    if (std::none_of(result.joined.begin(), result.joined.end(), joined_away) &&
+        std::none_of(result.reidentified.begin(), result.reidentified.end(), young_reidentified)) {
       spdlog::info("object {} retired (no support)", id);
     }
     workers_.release(id, now);
