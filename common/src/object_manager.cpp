@@ -48,6 +48,10 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.reidentify_similarity must be in (0, 1], got " +
                                 std::to_string(reidentify_similarity));
   }
+  if (!(reidentify_grown_min_share >= 0.f && reidentify_grown_min_share <= 1.f)) {
+    throw std::invalid_argument("ObjectManagerOptions.reidentify_grown_min_share must be in [0, 1], got " +
+                                std::to_string(reidentify_grown_min_share));
+  }
   if (!(propagation_min_seed_share >= 0.f && propagation_min_seed_share <= 1.f)) {
     throw std::invalid_argument("ObjectManagerOptions.propagation_min_seed_share must be in [0, 1], got " +
                                 std::to_string(propagation_min_seed_share));
@@ -516,6 +520,11 @@ void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
     const ManagedObject& grown = objects_.at(young);
     const std::int32_t known = reidentify(color_histogram(grown.model), grown.created_frame);
     if (known == 0) continue;
+    // Too little of it yet to register the remembered model on: it may match again as it grows.
+    if (static_cast<float>(grown.model.cloud.size()) <
+        options_.reidentify_grown_min_share * static_cast<float>(retired_.at(known).model.cloud.size())) {
+      continue;
+    }
     points.clear();
     for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
       if (frame_.labels[i] == young) points.push_back(static_cast<int>(i));

@@ -412,6 +412,59 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   EXPECT_GT(later.objects().at(3).model.cloud.size(), 3 * piece_points);  // it grew
 }
 
+TEST(ObjectManager, AReturningObjectIsReidentifiedOnlyOnceEnoughOfItHasGrown) {
+  // The red-ended blue block of the test above comes back red end first (2 of its 10 columns), then 6 columns show
+  // (its colours match already; the model grows by the 2 beyond tau of the piece), then all of it. With
+  // reidentify_grown_min_share 0.5 that model, 0.4 of the remembered one, is too little to register it on: the id
+  // comes back only with the whole block (0.6).
+  auto block = [](int columns) {
+    ColoredCloud cloud;
+    std::vector<std::int32_t> cluster;
+    add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});  // a steady neighbour, id 1
+    const std::size_t first = cloud.size();
+    add_block(cloud, cluster, 1, {0.1f, 0.f, 1.f}, {columns, 14, 6});
+    for (std::size_t i = first; i < cloud.size(); ++i) {
+      cloud.colors[i] = cloud.positions[i].x() < 0.1f + 0.0075f ? Rgb8{200, 30, 35} : Rgb8{35, 70, 200};
+    }
+    return std::make_pair(cloud, cluster);
+  };
+  ColoredCloud neighbour;
+  std::vector<std::int32_t> neighbour_cluster;
+  add_block(neighbour, neighbour_cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  const auto [whole, whole_cluster] = block(10);
+  const auto [half, half_cluster] = block(6);
+  const auto [piece, piece_cluster] = block(2);
+  // The manager after the 6 columns showed, and that frame's reidentified list.
+  auto run = [&](float min_share) {
+    ObjectManagerOptions options;
+    options.support.max_frames = 2;
+    options.new_objects.confirm_frames = 1;
+    options.model_update.alpha = 0.f;
+    options.reidentify_register = false;
+    options.reidentify_grown = true;
+    options.reidentify_grown_min_share = min_share;
+    auto manager = std::make_unique<ObjectManager>(options);
+    manager->process(whole, whole_cluster, {});
+    for (int t = 0; t < 2; ++t) manager->process(neighbour, neighbour_cluster, unchanged(*manager));
+    EXPECT_EQ(manager->process(piece, piece_cluster, unchanged(*manager)).created, (std::vector<std::int32_t>{3}));
+    const ObjectManagerFrame half_frame = manager->process(half, half_cluster, unchanged(*manager));
+    return std::make_pair(std::move(manager), half_frame.reidentified);
+  };
+  using Pairs = std::vector<std::pair<std::int32_t, std::int32_t>>;
+
+  // Without the floor the 6 columns take the id back.
+  EXPECT_EQ(run(0.f).second, (Pairs{{3, 2}}));
+
+  auto [manager, at_half] = run(0.5f);
+  EXPECT_TRUE(at_half.empty());
+  ASSERT_EQ(manager->objects().count(3), 1u);
+  EXPECT_NEAR(static_cast<float>(manager->objects().at(3).model.cloud.size()) / (10.f * 14.f * 6.f), 0.4f, 1e-6f);
+  const ObjectManagerFrame& at_whole = manager->process(whole, whole_cluster, unchanged(*manager));
+  EXPECT_EQ(at_whole.reidentified, (Pairs{{3, 2}}));
+  EXPECT_EQ(manager->objects().count(2), 1u);
+  EXPECT_EQ(manager->objects().count(3), 0u);
+}
+
 TEST(ObjectManager, ANewClusterBecomesAnObjectAfterPersisting) {
   TwoBlocks scene;
   ObjectManagerOptions options;

@@ -240,6 +240,10 @@ TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
       load_merger_config(with_defaults("merger:\n  propagation_min_seed_share: 0.2\n")).manager.propagation_min_seed_share,
       0.2f);
   expect_rejected(load_merger_config, "merger:\n  propagation_min_seed_share: 1.5\n", "propagation_min_seed_share");
+  EXPECT_FLOAT_EQ(
+      load_merger_config(with_defaults("merger:\n  reidentify_grown_min_share: 0.3\n")).manager.reidentify_grown_min_share,
+      0.3f);
+  expect_rejected(load_merger_config, "merger:\n  reidentify_grown_min_share: -0.1\n", "reidentify_grown_min_share");
   EXPECT_EQ(m.manager.registration.rotations, 64);
   EXPECT_EQ(m.manager.registration.candidates, 2);
   EXPECT_EQ(m.manager.registration.refine_rounds, 5);

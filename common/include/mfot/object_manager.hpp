@@ -103,6 +103,11 @@ struct ObjectManagerOptions {
   // takes the remembered id back as at birth (retired under its own id, created under the remembered one, its
   // points registered with reidentify_register). false = at birth only.
   bool reidentify_grown = false;
+  // ... and only once its model holds at least this share of the remembered model's points: a piece in the hand
+  // that brings the object back registers the remembered model on too little of it (a few degrees of a turn fit
+  // it as well), and the merged model and the pose carry that error until the object is seen whole. [0, 1]; 0 =
+  // as soon as its colours match.
+  float reidentify_grown_min_share = 0.f;
   ModelRegistrationOptions registration;
   // An object lacking support whose model, at its pose, is at least this share occluded by
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count

@@ -160,6 +160,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
   c.manager.reidentify_register = s.get<bool>("reidentify_register");
   c.manager.reidentify_grown = s.get<bool>("reidentify_grown");
+  c.manager.reidentify_grown_min_share = s.get<float>("reidentify_grown_min_share", 0.f, 1.f);
   c.manager.registration.rotations = s.get<int>("reidentify_rotations", 1, 100000);
   c.manager.registration.candidates = s.get<int>("reidentify_candidates", 1, 64);
   c.manager.registration.refine_rounds = s.get<int>("reidentify_refine_rounds", 0, 100);
