@@ -334,39 +334,56 @@ TEST(ObjectManager, AGrownObjectReachingInAgainIsKnownByItsFirstView) {
   EXPECT_EQ(manager.process(hand, hand_cluster, {}).created, (std::vector<std::int32_t>{1}));
 }
 
+// A steady neighbour (cluster 0, id 1) and, in cluster 1, the first columns (of 10, 5 mm apart) of a block with a red
+// end (its first two columns) and a blue rest, shifted by y: the returning object of the re-identification tests.
+std::pair<ColoredCloud, std::vector<std::int32_t>> returning_block(int columns, float y = 0.f) {
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  const std::size_t first = cloud.size();
+  add_block(cloud, cluster, 1, {0.1f, y, 1.f}, {columns, 14, 6});
+  for (std::size_t i = first; i < cloud.size(); ++i) {
+    cloud.colors[i] = cloud.positions[i].x() < 0.1f + 0.0075f ? Rgb8{200, 30, 35} : Rgb8{35, 70, 200};
+  }
+  return std::make_pair(cloud, cluster);
+}
+
+// Options under which only growth changes models, retirement takes two frames and ids come back unregistered.
+ObjectManagerOptions returning_options() {
+  ObjectManagerOptions options;
+  options.support.max_frames = 2;
+  options.new_objects.confirm_frames = 1;
+  options.model_update.alpha = 0.f;  // models change by growth alone
+  options.reidentify_register = false;
+  options.reidentify_grown = true;
+  return options;
+}
+
+// A manager under options that saw the whole block (id 2), then the neighbour alone until the block retired, then the
+// block's red end (2 columns) come back: a new object, id 3.
+std::unique_ptr<ObjectManager> with_a_piece_returned(const ObjectManagerOptions& options) {
+  auto manager = std::make_unique<ObjectManager>(options);
+  const auto [whole, whole_cluster] = returning_block(10);
+  manager->process(whole, whole_cluster, {});
+  ColoredCloud neighbour;
+  std::vector<std::int32_t> neighbour_cluster;
+  add_block(neighbour, neighbour_cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
+  for (int t = 0; t < 2; ++t) manager->process(neighbour, neighbour_cluster, unchanged(*manager));
+  EXPECT_EQ(manager->objects().count(2), 0u);
+  const auto [piece, piece_cluster] = returning_block(2);
+  EXPECT_EQ(manager->process(piece, piece_cluster, unchanged(*manager)).created, (std::vector<std::int32_t>{3}));
+  return manager;
+}
+
 TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   // A mostly blue block with a red end leaves the view and is retired. It comes back red end first: that piece's
   // colours match nothing, so it is a new object. Next frame the whole block shows: the new object grows by the
   // blue rest, and the grown model matches the remembered one, whose id it takes back.
-  auto block = [](bool whole, float y = 0.f) {
-    ColoredCloud cloud;
-    std::vector<std::int32_t> cluster;
-    add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});  // a steady neighbour, id 1
-    const std::size_t first = cloud.size();
-    add_block(cloud, cluster, 1, {0.1f, y, 1.f}, {whole ? 10 : 2, 14, 6});
-    for (std::size_t i = first; i < cloud.size(); ++i) {
-      cloud.colors[i] = cloud.positions[i].x() < 0.1f + 0.0075f ? Rgb8{200, 30, 35} : Rgb8{35, 70, 200};
-    }
-    return std::make_pair(cloud, cluster);
-  };
-  ColoredCloud neighbour;
-  std::vector<std::int32_t> neighbour_cluster;
-  add_block(neighbour, neighbour_cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
-  const auto [whole, whole_cluster] = block(true);
-  const auto [piece, piece_cluster] = block(false);
+  const auto [whole, whole_cluster] = returning_block(10);
   auto run = [&](bool grown_match) {
-    ObjectManagerOptions options;
-    options.support.max_frames = 2;
-    options.new_objects.confirm_frames = 1;
-    options.model_update.alpha = 0.f;  // models change by growth alone
-    options.reidentify_register = false;
+    ObjectManagerOptions options = returning_options();
     options.reidentify_grown = grown_match;
-    auto manager = std::make_unique<ObjectManager>(options);
-    manager->process(whole, whole_cluster, {});
-    for (int t = 0; t < 2; ++t) manager->process(neighbour, neighbour_cluster, unchanged(*manager));
-    EXPECT_EQ(manager->objects().count(2), 0u);
-    EXPECT_EQ(manager->process(piece, piece_cluster, unchanged(*manager)).created, (std::vector<std::int32_t>{3}));
-    return manager;
+    return with_a_piece_returned(options);
   };
 
   const auto manager = run(true);
@@ -395,18 +412,12 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
 
   // Only objects retired by the new one's birth: the piece shows elsewhere while the block is still tracked
   // (unsupported), the block retires a frame later. Two objects seen at once are not one.
-  ObjectManagerOptions options;
-  options.support.max_frames = 2;
-  options.new_objects.confirm_frames = 1;
-  options.model_update.alpha = 0.f;
-  options.reidentify_register = false;
-  options.reidentify_grown = true;
-  ObjectManager later(options);
+  ObjectManager later(returning_options());
   later.process(whole, whole_cluster, {});
-  const auto [moved_piece, moved_piece_cluster] = block(false, 0.2f);
+  const auto [moved_piece, moved_piece_cluster] = returning_block(2, 0.2f);
   EXPECT_EQ(later.process(moved_piece, moved_piece_cluster, unchanged(later)).created, (std::vector<std::int32_t>{3}));
   EXPECT_EQ(later.process(moved_piece, moved_piece_cluster, unchanged(later)).retired, (std::vector<std::int32_t>{2}));
-  const auto [moved_whole, moved_whole_cluster] = block(true, 0.2f);
+  const auto [moved_whole, moved_whole_cluster] = returning_block(10, 0.2f);
   EXPECT_TRUE(later.process(moved_whole, moved_whole_cluster, unchanged(later)).created.empty());
   EXPECT_EQ(later.objects().count(3), 1u);
   EXPECT_GT(later.objects().at(3).model.cloud.size(), 3 * piece_points);  // it grew
@@ -417,36 +428,13 @@ TEST(ObjectManager, AReturningObjectIsReidentifiedOnlyOnceEnoughOfItHasGrown) {
   // (its colours match already; the model grows by the 2 beyond tau of the piece), then all of it. With
   // reidentify_grown_min_share 0.5 that model, 0.4 of the remembered one, is too little to register it on: the id
   // comes back only with the whole block (0.6).
-  auto block = [](int columns) {
-    ColoredCloud cloud;
-    std::vector<std::int32_t> cluster;
-    add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});  // a steady neighbour, id 1
-    const std::size_t first = cloud.size();
-    add_block(cloud, cluster, 1, {0.1f, 0.f, 1.f}, {columns, 14, 6});
-    for (std::size_t i = first; i < cloud.size(); ++i) {
-      cloud.colors[i] = cloud.positions[i].x() < 0.1f + 0.0075f ? Rgb8{200, 30, 35} : Rgb8{35, 70, 200};
-    }
-    return std::make_pair(cloud, cluster);
-  };
-  ColoredCloud neighbour;
-  std::vector<std::int32_t> neighbour_cluster;
-  add_block(neighbour, neighbour_cluster, 0, {-0.2f, 0.f, 1.f}, {12, 12, 6});
-  const auto [whole, whole_cluster] = block(10);
-  const auto [half, half_cluster] = block(6);
-  const auto [piece, piece_cluster] = block(2);
+  const auto [whole, whole_cluster] = returning_block(10);
+  const auto [half, half_cluster] = returning_block(6);
   // The manager after the 6 columns showed, and that frame's reidentified list.
   auto run = [&](float min_share) {
-    ObjectManagerOptions options;
-    options.support.max_frames = 2;
-    options.new_objects.confirm_frames = 1;
-    options.model_update.alpha = 0.f;
-    options.reidentify_register = false;
-    options.reidentify_grown = true;
+    ObjectManagerOptions options = returning_options();
     options.reidentify_grown_min_share = min_share;
-    auto manager = std::make_unique<ObjectManager>(options);
-    manager->process(whole, whole_cluster, {});
-    for (int t = 0; t < 2; ++t) manager->process(neighbour, neighbour_cluster, unchanged(*manager));
-    EXPECT_EQ(manager->process(piece, piece_cluster, unchanged(*manager)).created, (std::vector<std::int32_t>{3}));
+    auto manager = with_a_piece_returned(options);
     const ObjectManagerFrame half_frame = manager->process(half, half_cluster, unchanged(*manager));
     return std::make_pair(std::move(manager), half_frame.reidentified);
   };
