@@ -207,7 +207,8 @@ struct ObjectManagerFrame {
 //      object whose SMR colour histogram matches a recently retired object's takes that id
 //      back, and with reidentify_register its remembered model is registered on the new points
 //      so that it keeps its object frame (else its model and frame are new: the pose jumps once); with
-//      reidentify_grown, a young object grown in step 5 that matched none at birth is matched again so;
+//      reidentify_grown, a young object grown in step 5 that matched none at birth is matched again so,
+//      once its model holds reidentify_grown_min_share of the remembered model's points;
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
 //      one cluster, discover their points again together: once that disagreed with them in
