@@ -153,18 +153,14 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
-  if (options_.last_pose_check_occluded_share > 0.f && !result.companion &&
-      result.occluded_share >= options_.last_pose_check_occluded_share) {
-    if (const std::optional<Pose> kept = better_start(model, last, result.estimate)) {
+  // 5c / 5d: the last estimate, where no companion moves the object, else moved by the companion's motion.
+  const bool checks_start =
+      result.companion ? options_.companion_pose_check : options_.last_pose_check_occluded_share > 0.f;
+  if (checks_start && result.occluded_share >= options_.last_pose_check_occluded_share) {
+    const Pose start = result.companion ? apply_increment(last, *companion) : last;
+    if (const std::optional<Pose> kept = better_start(model, start, result.estimate)) {
       result.estimate = filter.replace_estimate(*kept);
-      result.last_pose_kept = true;
-    }
-  }
-  if (options_.companion_pose_check && companion != nullptr &&
-      result.occluded_share >= options_.last_pose_check_occluded_share) {
-    if (const std::optional<Pose> kept = better_start(model, apply_increment(last, *companion), result.estimate)) {
-      result.estimate = filter.replace_estimate(*kept);
-      result.companion_pose_kept = true;
+      (result.companion ? result.companion_pose_kept : result.last_pose_kept) = true;
     }
   }
   result.fit = fit_.fit(hypothesis_, model, model_box, result.estimate);

@@ -152,7 +152,8 @@ struct TrackingStepResult {
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
 //  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
-//      occluded: the same with the last estimate moved by the companion's motion;
+//      occluded: the same with the last estimate moved by the companion's motion (one block with 5c: a frame runs
+//      one of the two, by whether a companion is set);
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
