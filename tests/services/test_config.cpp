@@ -153,12 +153,10 @@ TEST(Config, TheConfidencesSeenThroughWeightReachesTheStep) {
   expect_rejected(load_tracker_config, "tracker:\n  confidence_seen_through_weight: -1\n",
                   "confidence_seen_through_weight");
   // The share needs the scene's rays, which only the hold indexes: the thesis's step (no hold) needs the three off.
-  const std::string no_hold =
-      "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n  companion_pose_check: false\n";
+  const std::string hold_off = "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n";
+  const std::string no_hold = hold_off + "  companion_pose_check: false\n";
   expect_rejected(load_tracker_config, no_hold, "confidence_seen_through_weight");
-  expect_rejected(load_tracker_config,
-                  "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n  confidence_seen_through_weight: 0\n",
-                  "companion_pose_check");
+  expect_rejected(load_tracker_config, hold_off + "  confidence_seen_through_weight: 0\n", "companion_pose_check");
   EXPECT_NO_THROW(load_tracker_config(with_defaults(no_hold + "  confidence_seen_through_weight: 0\n")));
 }
 

@@ -103,9 +103,9 @@ struct TrackingStepOptions {
   // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points, with
   // last_pose_check_margin) is lower: a box turned by the hand that grips it shows too little of itself for the
   // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
-  // the last while the box turned 1.6 degrees a frame). Needs hold_occluded_share > 0. false = the filter's estimate
-  // (thesis); configs/default.yaml leaves it off at 100 particles (CPU `apart` seed 2 loses its low box with it) and
-  // says to set it with 2000 on a GPU (every held-out target met).
+  // the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it keeps its
+  // place. Needs hold_occluded_share > 0. false = the filter's estimate (thesis); configs/default.yaml turns it on
+  // (README "A gripped object started where its companion takes it, by default").
   bool companion_pose_check = false;
   void validate() const;  // throws std::invalid_argument naming the field
 };
