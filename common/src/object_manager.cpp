@@ -579,6 +579,7 @@ void ObjectManager::forget(std::int32_t id) {
   split_streak_.erase(id);
   split_parts_.erase(id);
   confirm_born_at_.erase(id);
+  std::erase_if(siblings_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
 
@@ -823,18 +824,21 @@ std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedO
 
 void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
   const DiscoveryOptions& o = options_.discovery;
+  std::vector<std::int32_t> leaving;  // objects whose first frames ended or that moved from where they were born
+  for (auto it = confirm_born_at_.begin(); it != confirm_born_at_.end();) {
+    const ManagedObject& object = objects_.at(it->first);
+    const bool left = frames_ - object.created_frame > o.confirm_frames ||
+                      (object.pose.translation - it->second).norm() > o.confirm_max_motion;
+    if (left) leaving.push_back(it->first);
+    it = left ? confirm_born_at_.erase(it) : std::next(it);
+  }
+  if (o.confirm_join && !leaving.empty()) join_unparted_siblings(leaving);
   // Still young objects by birth (the cluster they were found in), each with its segmented points.
   std::map<std::uint64_t, std::map<std::int32_t, std::vector<int>>> groups;
   std::map<std::int32_t, std::vector<int>*> points_of;
-  for (auto it = confirm_born_at_.begin(); it != confirm_born_at_.end();) {
-    const ManagedObject& object = objects_.at(it->first);
-    const std::int64_t age = frames_ - object.created_frame;
-    if (age > o.confirm_frames || (object.pose.translation - it->second).norm() > o.confirm_max_motion) {
-      it = confirm_born_at_.erase(it);
-      continue;
-    }
-    if (age >= 1 && !object.stale) points_of[it->first] = &groups[birth_.at(it->first)][it->first];
-    ++it;
+  for (const auto& [id, born_at] : confirm_born_at_) {
+    const ManagedObject& object = objects_.at(id);
+    if (frames_ - object.created_frame >= 1 && !object.stale) points_of[id] = &groups[birth_.at(id)][id];
   }
   std::erase_if(confirm_votes_, [&](const auto& entry) { return !groups.contains(entry.first); });
   if (groups.empty()) return;
@@ -850,11 +854,51 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     if (all.size() < 2 * options_.min_object_points) continue;
     discover_parts(scene, all, parts);
     const PartMatch match = match_parts(parts);
+    if (o.confirm_join) watch_siblings(members, match);
     if (!match.disagrees(static_cast<std::size_t>(o.min_part_points)) || ++confirm_votes_[birth] < o.confirm_votes) {
       continue;
     }
     confirm_votes_[birth] = 0;
     adopt_parts(scene, birth, all, parts, match);
+  }
+}
+
+void ObjectManager::watch_siblings(const std::map<std::int32_t, std::vector<int>>& members, const PartMatch& match) {
+  std::map<std::int32_t, std::pair<std::size_t, std::size_t>> main_part;  // member -> (its points there, part)
+  for (std::size_t p = 0; p < match.labels_in_part.size(); ++p) {
+    for (const auto& [id, count] : match.labels_in_part[p]) {
+      if (!members.contains(id)) continue;
+      auto& best = main_part[id];
+      if (count > best.first) best = {count, p};
+    }
+  }
+  for (auto a = main_part.begin(); a != main_part.end(); ++a) {
+    for (auto b = std::next(a); b != main_part.end(); ++b) {
+      SiblingWatch& watch = siblings_[{a->first, b->first}];
+      ++(a->second.second == b->second.second ? watch.together : watch.apart);
+    }
+  }
+}
+
+void ObjectManager::join_unparted_siblings(std::span<const std::int32_t> leaving) {
+  const DiscoveryOptions& o = options_.discovery;
+  const int min_together = o.confirm_frames - o.confirm_votes + 1;
+  std::vector<std::pair<std::int32_t, std::int32_t>> joins;  // (kept, joined)
+  for (auto it = siblings_.begin(); it != siblings_.end();) {
+    const auto [a, b] = it->first;
+    if (std::find(leaving.begin(), leaving.end(), a) == leaving.end() &&
+        std::find(leaving.begin(), leaving.end(), b) == leaving.end()) {
+      ++it;
+      continue;
+    }
+    if (it->second.apart == 0 && it->second.together >= min_together) {
+      const bool a_larger = objects_.at(a).model.cloud.size() >= objects_.at(b).model.cloud.size();
+      joins.emplace_back(a_larger ? a : b, a_larger ? b : a);
+    }
+    it = siblings_.erase(it);
+  }
+  for (const auto& [kept, joined] : joins) {
+    if (objects_.contains(kept) && objects_.contains(joined)) join(kept, joined);
   }
 }
 

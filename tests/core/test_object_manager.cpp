@@ -1089,6 +1089,62 @@ TEST(ObjectManagerConfirm, APartThatIsOneConvexPieceWithASiblingJoinsIt) {
   EXPECT_EQ(manager.objects().at(2).model.cloud.size(), born_second + 4u * 12u * 6u);
 }
 
+// Two objects the birth frame cut out of one block, then the discovery's parts in each of the confirm_frames frames
+// after (true: it cuts at x = 0 again, false: one part); returns the manager after the frame in which they leave the
+// confirmation (confirm_frames 5, votes 2: joined when together in all of at least 4 frames).
+struct CutAtBirth {
+  BornTogether scene;
+  std::unique_ptr<ObjectManager> manager;
+  ObjectManagerFrame last;
+  CutAtBirth(bool confirm_join, const std::vector<bool>& cut_in_frame) {
+    auto discovery = std::make_unique<SplitWhenTold>();
+    SplitWhenTold* told = discovery.get();
+    ObjectManagerOptions options = confirm_options();
+    options.discovery.confirm_join = confirm_join;
+    manager = std::make_unique<ObjectManager>(options, std::move(discovery));
+    told->splitting = true;
+    manager->process(scene.cloud, scene.cluster, {});
+    for (const bool cut : cut_in_frame) {
+      told->splitting = cut;
+      last = manager->process(scene.cloud, scene.cluster, unchanged(*manager));
+    }
+  }
+};
+
+TEST(ObjectManagerConfirm, SiblingsTheDiscoveryNeverToldApartAgainAreJoinedWhenTheirFirstFramesEnd) {
+  // Frames 1-5 find the block whole; frame 6 is past confirm_frames.
+  const std::vector<bool> whole(6, false);
+  CutAtBirth off(false, whole);
+  EXPECT_EQ(off.manager->objects().size(), 2u);
+  EXPECT_TRUE(off.last.joined.empty());
+  CutAtBirth on(true, whole);
+  ASSERT_EQ(on.last.joined, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));  // equal halves: 1 kept
+  EXPECT_EQ(on.last.retired, (std::vector<std::int32_t>{2}));
+  ASSERT_EQ(on.manager->objects().size(), 1u);
+  EXPECT_EQ(on.manager->objects().at(1).model.cloud.size(), 12u * 12u * 6u);
+  for (const std::int32_t label : on.last.labels) EXPECT_EQ(label, 1);
+}
+
+TEST(ObjectManagerConfirm, SiblingsToldApartInOneFrameOrSeenTooFewFramesTogetherStayApart) {
+  CutAtBirth apart_once(true, {false, false, true, false, false, false});  // one vote of two: no split either
+  EXPECT_TRUE(apart_once.last.joined.empty());
+  EXPECT_EQ(apart_once.manager->objects().size(), 2u);
+  // Together in every frame, but object 1 (x < 0) is taken 2 cm away after three (a hand took it): the pair is
+  // decided then, on three frames of the four it takes, and forgotten.
+  CutAtBirth still(true, {false, false, false});
+  ColoredCloud taken = still.scene.cloud;
+  for (auto& p : taken.positions) {
+    if (p.x() < 0.f) p.x() -= 0.02f;
+  }
+  const std::vector<std::int32_t> first{1};
+  EXPECT_TRUE(still.manager->process(taken, still.scene.cluster, moved(*still.manager, {-0.02f, 0.f, 0.f}, first))
+                  .joined.empty());
+  for (int frame = 0; frame < 3; ++frame) {
+    EXPECT_TRUE(still.manager->process(taken, still.scene.cluster, unchanged(*still.manager)).joined.empty());
+  }
+  EXPECT_EQ(still.manager->objects().size(), 2u);
+}
+
 TEST(DiscoveryOptions, RejectsConfirmVotesBeyondItsFrames) {
   DiscoveryOptions o;
   o.confirm_frames = 5;

@@ -333,7 +333,9 @@ TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   EXPECT_EQ(m.manager.discovery.confirm_frames, 20);
   EXPECT_EQ(m.manager.discovery.confirm_votes, 4);
   EXPECT_FLOAT_EQ(m.manager.discovery.confirm_max_motion, 0.02f);
-  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2"}) {
+  EXPECT_TRUE(m.manager.discovery.confirm_join);  // the shipped value
+  EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n")).manager.discovery.confirm_join);
+  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2", "confirm_join: 3"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
   EXPECT_FLOAT_EQ(load_merger_config(with_defaults("merger:\n  new_object_held_margin: 0.05\n")).manager.held_birth_margin, 0.05f);

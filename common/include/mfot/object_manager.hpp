@@ -212,7 +212,8 @@ struct ObjectManagerFrame {
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
 //      one cluster, discover their points again together: once that disagreed with them in
-//      confirm_votes frames, its parts become the objects (DiscoveryOptions).
+//      confirm_votes frames, its parts become the objects, and with confirm_join two of them that it never told
+//      apart are one (DiscoveryOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -315,6 +316,12 @@ class ObjectManager {
     bool disagrees(std::size_t min_piece) const;
   };
   PartMatch match_parts(const std::vector<std::vector<int>>& parts) const;
+  // confirm_join: counts, for each pair of the birth's objects, whether the part holding most of one's points
+  // holds most of the other's too.
+  void watch_siblings(const std::map<std::int32_t, std::vector<int>>& members, const PartMatch& match);
+  // confirm_join: the pairs with an object that leaves the confirmation are decided (the smaller of a pair never
+  // seen apart, in enough frames, joins the larger) and forgotten.
+  void join_unparted_siblings(std::span<const std::int32_t> leaving);
   // This frame's parts become the objects: an object keeps its part (model rebuilt from it; other objects' points
   // in it join it), a part no object took is a new sibling (if it then moves as one rigid body with the others,
   // join_rigid_parts puts them together again); an object that took no part keeps its points.
@@ -377,6 +384,13 @@ class ObjectManager {
   // found in one cluster), the frames in which the discovery disagreed with them.
   std::map<std::int32_t, Eigen::Vector3f> confirm_born_at_;
   std::map<std::uint64_t, int> confirm_votes_;
+  // Per pair of siblings (lower id first) in the confirmation: frames in which most of their points lay in one
+  // part, and in different parts (DiscoveryOptions::confirm_join).
+  struct SiblingWatch {
+    int together = 0;
+    int apart = 0;
+  };
+  std::map<std::pair<std::int32_t, std::int32_t>, SiblingWatch> siblings_;
   bool occlusion_scene_set_ = false;
   SpatialHash contact_hash_{0.01f};
   CarryMonitor carry_;

@@ -212,6 +212,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.confirm_frames = discovery.get<int>("confirm_frames", 0, 1000);
   c.manager.discovery.confirm_votes = discovery.get<int>("confirm_votes", 1, 1000);
   c.manager.discovery.confirm_max_motion = discovery.get<float>("confirm_max_motion", 1e-4f, 1.f);
+  c.manager.discovery.confirm_join = discovery.get<bool>("confirm_join");
   c.manager.discovery.boundary.radius = discovery.get<float>("boundary_radius", 0.f, 0.2f);
   c.manager.discovery.boundary.min_color_ratio = discovery.get<float>("boundary_color_ratio", 1.001f, 1e6f);
   discovery.finish();
