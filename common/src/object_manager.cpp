@@ -897,8 +897,16 @@ void ObjectManager::join_unparted_siblings(std::span<const std::int32_t> leaving
     }
     it = siblings_.erase(it);
   }
-  for (const auto& [kept, joined] : joins) {
-    if (objects_.contains(kept) && objects_.contains(joined)) join(kept, joined);
+  std::map<std::int32_t, std::int32_t> joined_into;  // a piece of three joins what its sibling joined
+  const auto now_in = [&](std::int32_t id) {
+    for (auto it = joined_into.find(id); it != joined_into.end(); it = joined_into.find(id)) id = it->second;
+    return id;
+  };
+  for (const auto& [larger, smaller] : joins) {
+    const std::int32_t kept = now_in(larger), joined = now_in(smaller);
+    if (kept == joined) continue;
+    join(kept, joined);
+    joined_into[joined] = kept;
   }
 }
 

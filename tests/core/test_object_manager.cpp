@@ -1145,6 +1145,38 @@ TEST(ObjectManagerConfirm, SiblingsToldApartInOneFrameOrSeenTooFewFramesTogether
   EXPECT_EQ(still.manager->objects().size(), 2u);
 }
 
+// A stand-in discovery that cuts at the given x while cuts are set (part k: the points past k cuts), else one part.
+class CutAtEach final : public ObjectDiscovery {
+ public:
+  std::vector<float> cuts;
+  int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8>, std::vector<int>& part) override {
+    part.assign(positions.size(), 0);
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      part[i] = static_cast<int>(std::count_if(cuts.begin(), cuts.end(), [&](float x) { return positions[i].x() >= x; }));
+    }
+    return static_cast<int>(cuts.size()) + 1;
+  }
+};
+
+TEST(ObjectManagerConfirm, ThreePiecesOfOneBirthNeverToldApartAgainBecomeOne) {
+  BornTogether scene;
+  auto discovery = std::make_unique<CutAtEach>();
+  CutAtEach* cutter = discovery.get();
+  ObjectManagerOptions options = confirm_options();
+  options.discovery.confirm_join = true;
+  ObjectManager manager(options, std::move(discovery));
+  cutter->cuts = {-0.01f, 0.01f};  // four columns each
+  manager.process(scene.cloud, scene.cluster, {});
+  ASSERT_EQ(manager.objects().size(), 3u);
+  cutter->cuts.clear();
+  ObjectManagerFrame last;
+  for (int frame = 1; frame <= 6; ++frame) last = manager.process(scene.cloud, scene.cluster, unchanged(manager));
+  // Pairs (1, 2), (1, 3), (2, 3): 2 and 3 join 1, and the last pair is already one object.
+  EXPECT_EQ(last.joined, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}, {1, 3}}));
+  ASSERT_EQ(manager.objects().size(), 1u);
+  for (const std::int32_t label : last.labels) EXPECT_EQ(label, 1);
+}
+
 TEST(DiscoveryOptions, RejectsConfirmVotesBeyondItsFrames) {
   DiscoveryOptions o;
   o.confirm_frames = 5;
