@@ -579,8 +579,9 @@ void ObjectManager::forget(std::int32_t id) {
   split_streak_.erase(id);
   split_parts_.erase(id);
   confirm_born_at_.erase(id);
-  std::erase_if(siblings_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
-  std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
+  const auto with_it = [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; };
+  std::erase_if(siblings_, with_it);  // pairs of ids: its siblings' watches and its rigid-part pairs
+  std::erase_if(pairs_, with_it);
 }
 
 OcclusionTest& ObjectManager::scene_occlusion(const ColoredCloud& scene) {

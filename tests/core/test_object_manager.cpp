@@ -991,19 +991,23 @@ TEST(ObjectManagerSplit, OnlyAPartThatDepartsFromTheObjectsMotionSplitsOff) {
   EXPECT_THROW(ObjectManager{invalid}, std::invalid_argument);
 }
 
-// A stand-in discovery told when to split and where: at x = at_x while splitting, else one part.
+// A stand-in discovery told when to split and where: at each x of at_x while splitting (a point's side: how many of
+// them it lies at or past), else one part; parts numbered by their first point, as ObjectDiscovery::split promises.
 class SplitWhenTold final : public ObjectDiscovery {
  public:
   bool splitting = false;
-  float at_x = 0.f;
+  std::vector<float> at_x{0.f};
   int calls = 0;
   int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8>, std::vector<int>& part) override {
     ++calls;
     part.assign(positions.size(), 0);
     if (!splitting) return 1;
-    const bool first_left = !positions.empty() && positions[0].x() < at_x;
-    for (std::size_t i = 0; i < positions.size(); ++i) part[i] = (positions[i].x() < at_x) == first_left ? 0 : 1;
-    return std::set<int>(part.begin(), part.end()).size();
+    std::map<std::ptrdiff_t, int> part_of_side;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      const std::ptrdiff_t side = std::count_if(at_x.begin(), at_x.end(), [&](float x) { return positions[i].x() >= x; });
+      part[i] = part_of_side.try_emplace(side, static_cast<int>(part_of_side.size())).first->second;
+    }
+    return static_cast<int>(part_of_side.size());
   }
 };
 
@@ -1072,13 +1076,13 @@ TEST(ObjectManagerConfirm, APartThatIsOneConvexPieceWithASiblingJoinsIt) {
   auto discovery = std::make_unique<SplitWhenTold>();
   SplitWhenTold* told = discovery.get();
   told->splitting = true;
-  told->at_x = 0.02f;  // the birth frame cuts too far right: object 1 takes the four columns in [0, 0.02)
+  told->at_x = {0.02f};  // the birth frame cuts too far right: object 1 takes the four columns in [0, 0.02)
   ObjectManager manager(confirm_options(), std::move(discovery));
   manager.process(scene.cloud, scene.cluster, {});
   ASSERT_EQ(manager.objects().size(), 2u);
   const std::size_t born_second = manager.objects().at(2).model.cloud.size();
   ASSERT_EQ(born_second, 2u * 12u * 6u);
-  told->at_x = 0.f;  // later frames cut at x = 0: the strip is one piece with object 2's points
+  told->at_x = {0.f};  // later frames cut at x = 0: the strip is one piece with object 2's points
   manager.process(scene.cloud, scene.cluster, unchanged(manager));
   const auto& result = manager.process(scene.cloud, scene.cluster, unchanged(manager));
   EXPECT_TRUE(result.split.empty());
@@ -1145,30 +1149,18 @@ TEST(ObjectManagerConfirm, SiblingsToldApartInOneFrameOrSeenTooFewFramesTogether
   EXPECT_EQ(still.manager->objects().size(), 2u);
 }
 
-// A stand-in discovery that cuts at the given x while cuts are set (part k: the points past k cuts), else one part.
-class CutAtEach final : public ObjectDiscovery {
- public:
-  std::vector<float> cuts;
-  int split(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8>, std::vector<int>& part) override {
-    part.assign(positions.size(), 0);
-    for (std::size_t i = 0; i < positions.size(); ++i) {
-      part[i] = static_cast<int>(std::count_if(cuts.begin(), cuts.end(), [&](float x) { return positions[i].x() >= x; }));
-    }
-    return static_cast<int>(cuts.size()) + 1;
-  }
-};
-
 TEST(ObjectManagerConfirm, ThreePiecesOfOneBirthNeverToldApartAgainBecomeOne) {
   BornTogether scene;
-  auto discovery = std::make_unique<CutAtEach>();
-  CutAtEach* cutter = discovery.get();
+  auto discovery = std::make_unique<SplitWhenTold>();
+  SplitWhenTold* told = discovery.get();
   ObjectManagerOptions options = confirm_options();
   options.discovery.confirm_join = true;
   ObjectManager manager(options, std::move(discovery));
-  cutter->cuts = {-0.01f, 0.01f};  // four columns each
+  told->splitting = true;
+  told->at_x = {-0.01f, 0.01f};  // four columns each
   manager.process(scene.cloud, scene.cluster, {});
   ASSERT_EQ(manager.objects().size(), 3u);
-  cutter->cuts.clear();
+  told->splitting = false;
   ObjectManagerFrame last;
   for (int frame = 1; frame <= 6; ++frame) last = manager.process(scene.cloud, scene.cluster, unchanged(manager));
   // Pairs (1, 2), (1, 3), (2, 3): 2 and 3 join 1, and the last pair is already one object.
