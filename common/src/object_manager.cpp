@@ -450,6 +450,37 @@ std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram, std::int
   return best;
 }
 
+std::int32_t ObjectManager::carried_match(const ColorHistogram& histogram) const {
+  std::int32_t best = 0;
+  float best_similarity = options_.reidentify_similarity;
+  for (const auto& [id, object] : objects_) {  // ascending ids: ties keep the oldest
+    if (object.carried_by == 0) continue;
+    const ColorHistogram carried = color_histogram(object.model);
+    float similarity = 0.f;
+    for (int b = 0; b < kSmrBins; ++b) similarity += std::sqrt(histogram[b] * carried[b]);
+    if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
+      best = id;
+      best_similarity = similarity;
+    }
+  }
+  return best;
+}
+
+bool ObjectManager::take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points) {
+  if (!registration_) return false;
+  ManagedObject& object = objects_.at(id);
+  const RetiredObject as_last_seen{frames_, object.version, {}, {}, object.model, object.pose, object.part_ends};
+  ManagedObject found = object;
+  if (!keep_frame(as_last_seen, scene, points, found)) return false;
+  object.model = std::move(found.model);
+  object.part_ends = std::move(found.part_ends);
+  object.pose = found.pose;  // still carried this frame: its tracker moves its filter there
+  object.support += points.size();
+  ++object.version;
+  for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = id;
+  return true;
+}
+
 void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> free_points) {
   if (free_points.size() < options_.min_object_points) return;
   current_birth_ = next_birth_++;  // the objects of this cluster are siblings
@@ -480,6 +511,10 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   const ColorHistogram histogram = color_histogram(object.model);
   const std::int32_t known = frames_ > 0 ? reidentify(histogram, frames_) : 0;
+  if (known == 0 && options_.carry.frames > 0) {
+    const std::int32_t carried = carried_match(histogram);
+    if (carried != 0 && take_points_carried(carried, scene, free_points)) return;
+  }
   if (known != 0) {
     take_id_back(known, scene, free_points, object);
   } else {

@@ -818,6 +818,78 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
   }
 }
 
+// Block 1 carried by block 2 as above, then seen again 4 cm from where it was carried to (the carrier's motion a
+// guess: a box brought back in a hand): its points lie beyond tau of its model, in a cluster of their own, and would
+// be born as a new object. Its colours match the carried block's and its model registers on them: it takes the
+// points and the registered pose, and nothing is born. Without the registration (reidentify_register false) a new
+// object is born beside it.
+TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsBack) {
+  for (const bool registered : {true, false}) {
+    SCOPED_TRACE(registered ? "registration on" : "registration off");
+    BornTogether scene;
+    ObjectManagerOptions options;
+    options.model_update.alpha = 0.f;
+    options.carry.frames = 3;
+    options.carry.min_motion = 0.02f;
+    options.hidden_occluded_share = 0.6f;
+    options.new_objects.confirm_frames = 1;
+    options.reidentify_register = registered;
+    ObjectManager manager(options, std::make_unique<SplitAtXZero>());
+    manager.process(scene.cloud, scene.cluster, {});
+    ASSERT_EQ(manager.objects().size(), 2u);
+    const std::vector<std::int32_t> both{1, 2};
+    Eigen::Vector3f offset = Eigen::Vector3f::Zero();
+    for (int frame = 0; frame < 5; ++frame) {
+      offset.x() += 0.01f;
+      manager.process(shifted(scene.cloud, offset), scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
+    }
+    ColoredCloud second_only;  // block 1 hidden
+    ColoredCloud first_only;
+    for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
+      (scene.cloud.positions[i].x() < 0.f ? first_only : second_only)
+          .push_back(scene.cloud.positions[i], scene.cloud.colors[i]);
+    }
+    const auto held_first = [&](const Eigen::Vector3f& step) {
+      std::map<std::int32_t, ObjectEstimate> estimates = moved(manager, step, std::vector<std::int32_t>{2});
+      estimates.at(1).held = true;
+      return estimates;
+    };
+    for (int frame = 0; frame < 2; ++frame) {
+      offset.x() += 0.01f;
+      manager.process(shifted(second_only, offset), std::vector<std::int32_t>(second_only.size(), 0),
+                      held_first({0.01f, 0.f, 0.f}));
+      ASSERT_EQ(manager.objects().at(1).carried_by, 2);
+    }
+    // Block 1 back, 4 cm short of where block 2 carried it, in its own cluster.
+    offset.x() += 0.01f;
+    ColoredCloud back = shifted(second_only, offset);
+    std::vector<std::int32_t> cluster(back.size(), 0);
+    const ColoredCloud first_back = shifted(first_only, offset - Eigen::Vector3f(0.04f, 0.f, 0.f));
+    for (std::size_t i = 0; i < first_back.size(); ++i) {
+      back.push_back(first_back.positions[i], first_back.colors[i]);
+      cluster.push_back(1);
+    }
+    const ObjectManagerFrame& result = manager.process(back, cluster, held_first({0.01f, 0.f, 0.f}));
+    const std::size_t first_begin = second_only.size();
+    if (!registered) {
+      EXPECT_EQ(result.created, (std::vector<std::int32_t>{3}));
+      continue;
+    }
+    EXPECT_TRUE(result.created.empty());
+    EXPECT_EQ(manager.objects().size(), 2u);
+    for (std::size_t i = first_begin; i < back.size(); ++i) EXPECT_EQ(result.labels[i], 1) << "point " << i;
+    // Its pose: where its points are, not where it was carried to.
+    const ManagedObject& first = manager.objects().at(1);
+    Eigen::Vector3f model_centroid = Eigen::Vector3f::Zero();
+    for (const auto& p : first.model.cloud.positions) model_centroid += p;
+    model_centroid /= static_cast<float>(first.model.cloud.size());
+    Eigen::Vector3f seen_centroid = Eigen::Vector3f::Zero();
+    for (const auto& p : first_back.positions) seen_centroid += p;
+    seen_centroid /= static_cast<float>(first_back.size());
+    EXPECT_LT((first.pose.isometry() * model_centroid - seen_centroid).norm(), 0.005f);
+  }
+}
+
 // Two touching blocks born apart stay still while seen; then block 1's tracker holds it (its points
 // still in view: claimed by block 2, say) while block 2 stays (the grip), and from frame 7 both move 1 cm
 // a frame. No watch saw them move together, but once block 2 is min_motion (2 cm) off its grip, block

@@ -240,6 +240,8 @@ TEST(Config, ConfidenceAndReregistrationKeysReachTheirOptions) {
       load_merger_config(with_defaults("merger:\n  propagation_min_seed_share: 0.2\n")).manager.propagation_min_seed_share,
       0.2f);
   expect_rejected(load_merger_config, "merger:\n  propagation_min_seed_share: 1.5\n", "propagation_min_seed_share");
+  // The shipped guard: a box the hand brings back is not swallowed by a few of the hand's points in its cluster.
+  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("")).manager.propagation_min_seed_share, 0.1f);
   EXPECT_FLOAT_EQ(
       load_merger_config(with_defaults("merger:\n  reidentify_grown_min_share: 0.3\n")).manager.reidentify_grown_min_share,
       0.3f);
@@ -334,6 +336,9 @@ TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   EXPECT_EQ(m.manager.discovery.confirm_votes, 4);
   EXPECT_FLOAT_EQ(m.manager.discovery.confirm_max_motion, 0.02f);
   EXPECT_TRUE(m.manager.discovery.confirm_join);  // the shipped value
+  // The shipped supervoxel size: 2 cm finds the step between touching front faces that 3 cm straddles
+  // (LccpDiscoveryOnSensorViews).
+  EXPECT_FLOAT_EQ(m.manager.discovery.seed_resolution, 0.02f);
   EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n")).manager.discovery.confirm_join);
   for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2", "confirm_join: 3"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));

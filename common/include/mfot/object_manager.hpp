@@ -206,7 +206,10 @@ struct ObjectManagerFrame {
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
 //      back, and with reidentify_register its remembered model is registered on the new points
-//      so that it keeps its object frame (else its model and frame are new: the pose jumps once); with
+//      so that it keeps its object frame (else its model and frame are new: the pose jumps once); a new
+//      object whose histogram matches an object carried this frame (step 1) whose model registers on its
+//      points is that object seen again, its carried pose a guess too far off for tau: it takes the points,
+//      the registered pose and the merged model, and no object is born; with
 //      reidentify_grown, a young object grown in step 5 that matched none at birth is matched again so,
 //      once its model holds reidentify_grown_min_share of the remembered model's points;
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
@@ -260,6 +263,11 @@ class ObjectManager {
   static ColorHistogram color_histogram(const ObjectModel& model);
   // The remembered id, retired in frame retired_by or before, that the histogram matches best, or 0.
   std::int32_t reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const;
+  // Step 6: the object carried this frame that the histogram matches best (as reidentify), or 0.
+  std::int32_t carried_match(const ColorHistogram& histogram) const;
+  // Step 6: the carried object id takes points when its model registers on them (keep_frame): its pose, model and
+  // labels; false (nothing changed) when it does not register or there is no registration.
+  bool take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points);
   // Step 6 (reidentify_grown): the objects of grown_ born unknown that match a remembered one now take its id.
   void reidentify_grown_objects(const ColoredCloud& scene);
 

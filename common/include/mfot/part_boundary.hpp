@@ -1,6 +1,6 @@
 #pragma once
 // Point-level boundaries between discovered parts, by colour. The discovery (object_discovery.hpp)
-// labels whole supervoxels (seed_resolution, 3 cm): where two touching objects' faces are nearly
+// labels whole supervoxels (seed_resolution, 2 cm shipped): where two touching objects' faces are nearly
 // flush, a supervoxel that straddles the seam goes with all its points to one of them, and that
 // strip stays in the wrong object's model for as long as the two touch. Along the seam the colour
 // still tells the objects apart: a point near another part moves to it when the small patch around
