@@ -761,6 +761,21 @@ TEST(ObjectManagerJoin, StillOrSeparatelyMovingOrUnrelatedObjectsStayApart) {
   }
 }
 
+// The two blocks of scene born in the manager's first frame, then moved 1 cm a frame together for `frames` frames
+// (seen, neither carried); returns the scene's offset.
+Eigen::Vector3f moved_together(ObjectManager& manager, const BornTogether& scene, int frames) {
+  manager.process(scene.cloud, scene.cluster, {});
+  EXPECT_EQ(manager.objects().size(), 2u);
+  const std::vector<std::int32_t> both{1, 2};
+  Eigen::Vector3f offset = Eigen::Vector3f::Zero();
+  for (int frame = 0; frame < frames; ++frame) {
+    offset.x() += 0.01f;
+    manager.process(shifted(scene.cloud, offset), scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
+    EXPECT_EQ(manager.objects().at(1).carried_by, 0);
+  }
+  return offset;
+}
+
 // Two touching blocks born apart (a hand gripping a box, as far as the manager can tell) move 1 cm a
 // frame together; then block 1's tracker holds it (hidden) while block 2 goes on: block 1 follows
 // block 2 (carried_by 2) and its held frames without support do not retire it. With carry off it
@@ -776,15 +791,7 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
     options.hidden_occluded_share = 0.6f;
     options.support.max_frames = 2;
     ObjectManager manager(options, std::make_unique<SplitAtXZero>());
-    manager.process(scene.cloud, scene.cluster, {});
-    ASSERT_EQ(manager.objects().size(), 2u);
-    const std::vector<std::int32_t> both{1, 2};
-    Eigen::Vector3f offset = Eigen::Vector3f::Zero();
-    for (int frame = 0; frame < 5; ++frame) {
-      offset.x() += 0.01f;
-      manager.process(shifted(scene.cloud, offset), scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
-      EXPECT_EQ(manager.objects().at(1).carried_by, 0);
-    }
+    Eigen::Vector3f offset = moved_together(manager, scene, 5);
     const Pose last_seen = manager.objects().at(1).pose;
     // Block 1 hidden: only block 2's points are in view; its tracker holds it.
     ColoredCloud visible;
@@ -835,14 +842,7 @@ TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsB
     options.new_objects.confirm_frames = 1;
     options.reidentify_register = registered;
     ObjectManager manager(options, std::make_unique<SplitAtXZero>());
-    manager.process(scene.cloud, scene.cluster, {});
-    ASSERT_EQ(manager.objects().size(), 2u);
-    const std::vector<std::int32_t> both{1, 2};
-    Eigen::Vector3f offset = Eigen::Vector3f::Zero();
-    for (int frame = 0; frame < 5; ++frame) {
-      offset.x() += 0.01f;
-      manager.process(shifted(scene.cloud, offset), scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
-    }
+    Eigen::Vector3f offset = moved_together(manager, scene, 5);
     ColoredCloud second_only;  // block 1 hidden
     ColoredCloud first_only;
     for (std::size_t i = 0; i < scene.cloud.size(); ++i) {
