@@ -122,6 +122,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   frame_.registered.clear();
   frame_.retired.clear();
   frame_.reidentified.clear();
+  frame_.found_carried.clear();
   gripped_away_.clear();
   grown_.clear();
 
@@ -478,6 +479,7 @@ bool ObjectManager::take_points_carried(std::int32_t id, const ColoredCloud& sce
   object.support += points.size();
   ++object.version;
   for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = id;
+  frame_.found_carried.push_back(id);
   return true;
 }
 

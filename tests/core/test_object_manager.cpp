@@ -876,6 +876,7 @@ TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsB
       continue;
     }
     EXPECT_TRUE(result.created.empty());
+    EXPECT_EQ(result.found_carried, (std::vector<std::int32_t>{1}));
     EXPECT_EQ(manager.objects().size(), 2u);
     for (std::size_t i = first_begin; i < back.size(); ++i) EXPECT_EQ(result.labels[i], 1) << "point " << i;
     // Its pose: where its points are, not where it was carried to.

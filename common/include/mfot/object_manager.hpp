@@ -178,6 +178,8 @@ struct ObjectManagerFrame {
   std::vector<std::pair<std::int32_t, std::int32_t>> reidentified;
   // (object, sibling) this frame: confirm_discovery gave points of the object to the sibling whose part they lie in.
   std::vector<std::pair<std::int32_t, std::int32_t>> regrouped;
+  // Carried objects that took a birth's points this frame (seen again away from their carried pose; no id created).
+  std::vector<std::int32_t> found_carried;
 };
 
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:

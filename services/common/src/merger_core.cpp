@@ -168,6 +168,9 @@ void MergerCore::finish_frame(Clock::time_point now) {
     const bool kept_frame = std::find(result.registered.begin(), result.registered.end(), id) != result.registered.end();
     spdlog::info("object {} created at frame {}{}", id, seq, kept_frame ? " (re-identified: its model registered, frame kept)" : "");
   }
+  for (const std::int32_t id : result.found_carried) {
+    spdlog::info("object {} found again at frame {} away from where it was carried (its model registered)", id, seq);
+  }
   assign_idle_workers(now);
   // Every owner gets its object's model of this frame (a new object's owner got it on assignment).
   for (const auto& [object_id, worker_id] : workers_.owners()) {
