@@ -430,6 +430,12 @@ ObjectManager::ColorHistogram ObjectManager::color_histogram(const ObjectModel& 
   return histogram;
 }
 
+float ObjectManager::similarity_of(const ColorHistogram& a, const ColorHistogram& b) {
+  float coefficient = 0.f;  // Bhattacharyya
+  for (int k = 0; k < kSmrBins; ++k) coefficient += std::sqrt(a[k] * b[k]);
+  return coefficient;
+}
+
 std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const {
   std::int32_t best = 0;
   float best_similarity = options_.reidentify_similarity;
@@ -437,12 +443,8 @@ std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram, std::int
     if (retired.retired_frame > retired_by) continue;
     // An object grown while entering (a hand and its arm) may come back showing only what it
     // showed first: either view may match.
-    float last = 0.f, first = 0.f;
-    for (int b = 0; b < kSmrBins; ++b) {
-      last += std::sqrt(histogram[b] * retired.histogram[b]);
-      first += std::sqrt(histogram[b] * retired.first_seen[b]);
-    }
-    const float similarity = std::max(last, first);
+    const float similarity =
+        std::max(similarity_of(histogram, retired.histogram), similarity_of(histogram, retired.first_seen));
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
       best_similarity = similarity;
@@ -456,9 +458,7 @@ std::int32_t ObjectManager::carried_match(const ColorHistogram& histogram) const
   float best_similarity = options_.reidentify_similarity;
   for (const auto& [id, object] : objects_) {  // ascending ids: ties keep the oldest
     if (object.carried_by == 0) continue;
-    const ColorHistogram carried = color_histogram(object.model);
-    float similarity = 0.f;
-    for (int b = 0; b < kSmrBins; ++b) similarity += std::sqrt(histogram[b] * carried[b]);
+    const float similarity = similarity_of(histogram, color_histogram(object.model));
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
       best_similarity = similarity;

@@ -263,6 +263,8 @@ class ObjectManager {
     std::vector<std::uint32_t> part_ends;  // its model's parts
   };
   static ColorHistogram color_histogram(const ObjectModel& model);
+  // The Bhattacharyya coefficient of two histograms, in [0, 1].
+  static float similarity_of(const ColorHistogram& a, const ColorHistogram& b);
   // The remembered id, retired in frame retired_by or before, that the histogram matches best, or 0.
   std::int32_t reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const;
   // Step 6: the object carried this frame that the histogram matches best (as reidentify), or 0.
