@@ -34,11 +34,6 @@ void print_row(const char* name, const Series& s) {
               s.percentile(0.95));
 }
 
-mfot::RgbdImageView view_of(const mfot::sim::RenderedFrame& f) {
-  const auto& k = f.intrinsics;
-  return mfot::RgbdImageView{k.width, k.height, mfot::CameraIntrinsics{k.fx, k.fy, k.cx, k.cy}, f.depth_mm, f.color};
-}
-
 // The points the voxel stage sees: back-projected, cropped and above the plane (as Preprocessor).
 void kept_points(const mfot::sim::RenderedFrame& f, const mfot::PreprocessorOptions& options,
                  const mfot::TablePlane& plane, std::vector<Eigen::Vector3f>& positions, std::vector<mfot::Rgb8>& colors,
@@ -87,7 +82,7 @@ int main(int argc, char** argv) {
   // Steady state: the plane is kept between frames (refitted only when it stops fitting).
   {
     mfot::Preprocessor preprocessor(options);
-    for (const auto& f : frames) preprocessor.process(view_of(f));  // warm-up
+    for (const auto& f : frames) preprocessor.process(mfot::sim::image_view(f));  // warm-up
     Series backproject, plane, voxel, cluster, total, wall, cpu;
     Series cropped, above, voxels, clusters;
     int refits = 0;
@@ -95,7 +90,7 @@ int main(int argc, char** argv) {
       for (const auto& f : frames) {
         const auto start = Clock::now();
         const std::clock_t cpu_start = std::clock();
-        const mfot::SceneCloud& scene = preprocessor.process(view_of(f));
+        const mfot::SceneCloud& scene = preprocessor.process(mfot::sim::image_view(f));
         cpu.add(1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC);
         wall.add(ms_since(start));
         const auto& s = preprocessor.stats();
@@ -131,7 +126,7 @@ int main(int argc, char** argv) {
     for (int r = 0; r < repetitions; ++r) {
       for (const auto& f : frames) {
         preprocessor.reset_plane();
-        preprocessor.process(view_of(f));
+        preprocessor.process(mfot::sim::image_view(f));
         plane.add(preprocessor.stats().plane_ms);
         total.add(preprocessor.stats().total_ms);
       }
@@ -144,7 +139,7 @@ int main(int argc, char** argv) {
 
   // Voxel grid alone: ours against pcl::VoxelGrid on the same points.
   mfot::Preprocessor reference(options);
-  reference.process(view_of(frames.front()));
+  reference.process(mfot::sim::image_view(frames.front()));
   const mfot::TablePlane table = reference.plane();
   for (const bool above_only : {true, false}) {
     mfot::VoxelDownsampler ours(options.voxel_size);

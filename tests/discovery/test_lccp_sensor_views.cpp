@@ -17,11 +17,6 @@ namespace {
 constexpr int kTallBox = 3;  // `apart`'s ground-truth ids
 constexpr int kLowBox = 4;
 
-RgbdImageView view_of(const sim::RenderedFrame& f) {
-  const auto& k = f.intrinsics;
-  return RgbdImageView{k.width, k.height, CameraIntrinsics{k.fx, k.fy, k.cx, k.cy}, f.depth_mm, f.color};
-}
-
 // The points of the scene's cluster that holds the low box, each with its ground-truth label.
 struct TwoBoxCluster {
   std::vector<Eigen::Vector3f> positions;
@@ -85,7 +80,7 @@ std::vector<int> frames_apart(float seed_resolution, const std::vector<std::uint
     std::vector<int> part;
     for (int f = 0; f < frames; ++f) {
       const sim::RenderedFrame frame = simulator.render(f);
-      preprocessor.process(view_of(frame));
+      preprocessor.process(sim::image_view(frame));
       const TwoBoxCluster cluster = low_box_cluster(frame, preprocessor.scene());
       discovery->split(cluster.positions, cluster.colors, part);
       count += boxes_apart(cluster, part) ? 1 : 0;

@@ -11,11 +11,6 @@
 namespace mfot {
 namespace {
 
-RgbdImageView view_of(const sim::RenderedFrame& f) {
-  const auto& k = f.intrinsics;
-  return RgbdImageView{k.width, k.height, CameraIntrinsics{k.fx, k.fy, k.cx, k.cy}, f.depth_mm, f.color};
-}
-
 void expect_same_scene(const Preprocessor& a, const Preprocessor& b, int frame) {
   const SceneCloud& x = a.scene();
   const SceneCloud& y = b.scene();
@@ -62,9 +57,9 @@ TEST(PreprocessorThreads, SameSceneForOneTwoAndSevenThreads) {
       two.reset_plane();
       seven.reset_plane();
     }
-    one.process(view_of(rendered));
-    two.process(view_of(rendered));
-    seven.process(view_of(rendered));
+    one.process(sim::image_view(rendered));
+    two.process(sim::image_view(rendered));
+    seven.process(sim::image_view(rendered));
     expect_same_scene(one, two, frame);
     expect_same_scene(one, seven, frame);
   }

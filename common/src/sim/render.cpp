@@ -250,6 +250,11 @@ float axial_sigma(const SensorOptions& sensor, float z_m) {
   return sensor.axial_sigma_base_m + sensor.axial_sigma_quadratic * dz * dz;
 }
 
+RgbdImageView image_view(const RenderedFrame& frame) {
+  const CameraIntrinsics& k = frame.intrinsics;
+  return RgbdImageView{k.width, k.height, mfot::CameraIntrinsics{k.fx, k.fy, k.cx, k.cy}, frame.depth_mm, frame.color};
+}
+
 RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, const SensorOptions& sensor,
                            std::uint64_t noise_seed) {
   cam.validate();

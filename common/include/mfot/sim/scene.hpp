@@ -7,6 +7,7 @@
 // Camera convention: pinhole, x right, y down, z forward (optical axis); pixel (u, v) centre
 // looks along ((u - cx) / fx, (v - cy) / fy, 1). Depth is the z coordinate (not the ray length).
 
+#include "mfot/preprocessing.hpp"
 #include "mfot/types.hpp"
 
 #include <Eigen/Core>
@@ -46,6 +47,9 @@ struct RenderedFrame {
   std::vector<std::uint16_t> labels;
   std::vector<GroundTruthPose> poses;
 };
+
+// The frame as the Preprocessor takes it (a view: valid while frame lives).
+RgbdImageView image_view(const RenderedFrame& frame);
 
 // Kinect-like sensor model. With noise = false every random and quantising effect below is off
 // (exact geometry, depth only rounded to the nearest millimetre by the uint16 format); the range
