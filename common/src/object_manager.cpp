@@ -470,9 +470,8 @@ std::int32_t ObjectManager::carried_match(const ColorHistogram& histogram) const
 bool ObjectManager::take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points) {
   if (!registration_) return false;
   ManagedObject& object = objects_.at(id);
-  const RetiredObject as_last_seen{frames_, object.version, {}, {}, object.model, object.pose, object.part_ends};
-  ManagedObject found = object;
-  if (!keep_frame(as_last_seen, scene, points, found)) return false;
+  ManagedObject found;
+  if (!keep_frame(object.model, object.pose, object.part_ends, scene, points, found)) return false;
   object.model = std::move(found.model);
   object.part_ends = std::move(found.part_ends);
   object.pose = found.pose;  // still carried this frame: its tracker moves its filter there
@@ -546,7 +545,10 @@ void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, 
                                  ManagedObject& object) {
   object.id = known;
   object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
-  if (registration_ && keep_frame(retired_.at(known), scene, points, object)) frame_.registered.push_back(known);
+  const RetiredObject& retired = retired_.at(known);
+  if (registration_ && keep_frame(retired.model, retired.pose, retired.part_ends, scene, points, object)) {
+    frame_.registered.push_back(known);
+  }
   retired_.erase(known);
 }
 
@@ -578,8 +580,8 @@ void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
   }
 }
 
-bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
-                               ManagedObject& object) {
+bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::span<const std::uint32_t> part_ends,
+                               const ColoredCloud& scene, std::span<const int> points, ManagedObject& object) {
   registration_points_.points.clear();
   registration_points_.colors.clear();
   for (const int i : points) {
@@ -588,17 +590,17 @@ bool ObjectManager::keep_frame(const RetiredObject& retired, const ColoredCloud&
   }
   registration_points_.features = compute_smr(registration_points_.colors, options_.smr);
   const std::optional<Registration> found =
-      registration_->register_model(retired.model, registration_points_, retired.pose.rotation);
+      registration_->register_model(model, registration_points_, pose.rotation);
   if (!found) return false;
   // The remembered model first (its points win their voxels when thinning), then the new points
   // in its frame.
   const Eigen::Isometry3f camera_to_object = found->pose.isometry().inverse();
-  ObjectModel whole = retired.model;
+  ObjectModel whole = model;
   for (std::size_t k = 0; k < registration_points_.points.size(); ++k) {
     whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
   }
   whole.features.insert(whole.features.end(), registration_points_.features.begin(), registration_points_.features.end());
-  object.part_ends = retired.part_ends;
+  object.part_ends.assign(part_ends.begin(), part_ends.end());
   object.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));
   object.model = thinned(std::move(whole), options_.max_model_points, object.part_ends);
   object.pose = found->pose;

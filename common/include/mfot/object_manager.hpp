@@ -353,10 +353,11 @@ class ObjectManager {
   // object (made from points, scene indices) takes the remembered id known back: its version goes on from the
   // remembered one's and, with the registration, its frame and model (keep_frame); known is remembered no more.
   void take_id_back(std::int32_t known, const ColoredCloud& scene, std::span<const int> points, ManagedObject& object);
-  // Registers retired's model on the points (scene indices) of a re-identified object: on success
-  // object gets its pose and the remembered model with the points added, and true is returned.
-  bool keep_frame(const RetiredObject& retired, const ColoredCloud& scene, std::span<const int> points,
-                  ManagedObject& object);
+  // Registers a known model (at its last pose, with its parts) on the points (scene indices) of an object seen again
+  // (re-identified, or carried): on success object gets the registered pose and that model with the points added,
+  // and true is returned; else object is unchanged.
+  bool keep_frame(const ObjectModel& model, const Pose& pose, std::span<const std::uint32_t> part_ends,
+                  const ColoredCloud& scene, std::span<const int> points, ManagedObject& object);
 
   ObjectManagerOptions options_;
   std::unique_ptr<ObjectDiscovery> discovery_;
