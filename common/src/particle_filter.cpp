@@ -292,15 +292,20 @@ const Pose& ParticleFilter::hold() {
 
 const Pose& ParticleFilter::replace_estimate(const Pose& pose) {
   if (!stepped_last_) throw std::logic_error("ParticleFilter::replace_estimate called without a step() before it");
+  if (options_.particles_follow_replaced_estimate) move_particles(pose);
   estimate_ = pose;
   velocity_ = pose_difference(previous_estimate_, estimate_);
   return estimate_;
 }
 
-const Pose& ParticleFilter::move_to(const Pose& pose) {
-  if (!initialised_) throw std::logic_error("ParticleFilter::move_to called before reset()");
+void ParticleFilter::move_particles(const Pose& pose) {
   const Eigen::Isometry3f move = pose.isometry() * estimate_.isometry().inverse();
   for (Pose& particle : particles_) particle = Pose::from_isometry(move * particle.isometry());
+}
+
+const Pose& ParticleFilter::move_to(const Pose& pose) {
+  if (!initialised_) throw std::logic_error("ParticleFilter::move_to called before reset()");
+  move_particles(pose);
   velocity_ = pose_difference(estimate_, pose);
   estimate_ = pose;
   stepped_last_ = false;

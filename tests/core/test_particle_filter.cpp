@@ -370,6 +370,41 @@ TEST(ParticleFilter, AReplacedEstimateGivesTheNextPrediction) {
   EXPECT_THROW(filter.replace_estimate(scene.pose_at(4)), std::logic_error);  // a held frame has no step to refine
 }
 
+// With particles_follow_replaced_estimate, the refined pose takes the particle set with it: every particle
+// moved by the rigid motion from the step's estimate to the refined one, weights and dX as without it.
+// Without it, the set stays where the step left it.
+TEST(ParticleFilter, AReplacedEstimateMovesTheParticlesWhenTheyFollowIt) {
+  const MovingObject scene;
+  JcsdLikelihood likelihood;
+  likelihood.set_model(scene.model);
+  ParticleFilterOptions follow_options = tracking_options(21);
+  follow_options.particles_follow_replaced_estimate = true;
+  ParticleFilter following(follow_options);
+  ParticleFilter staying(tracking_options(21));
+  const HypothesisData data = test::make_hypothesis(test::transformed(scene.object, scene.pose_at(1)));
+  for (ParticleFilter* filter : {&following, &staying}) {
+    filter->reset(scene.pose_at(0));
+    filter->step(data, likelihood);
+  }
+  ASSERT_EQ(following.estimate().translation, staying.estimate().translation);  // same seed, same step
+  const Pose stepped = following.estimate();
+  const std::vector<Pose> before(following.particles().begin(), following.particles().end());
+  const std::vector<float> weights(following.weights().begin(), following.weights().end());
+  const Pose refined = apply_increment(stepped, (PoseVector() << 0.004f, -0.002f, 0.003f, 0.f, 0.05f, -0.08f).finished());
+  following.replace_estimate(refined);
+  staying.replace_estimate(refined);
+  const Eigen::Isometry3f motion = refined.isometry() * stepped.isometry().inverse();
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    const Pose expected = Pose::from_isometry(motion * before[i].isometry());
+    EXPECT_LT(test::translation_error(following.particles()[i], expected), 1e-5f) << "particle " << i;
+    EXPECT_LT(test::rotation_error(following.particles()[i], expected), 1e-4f) << "particle " << i;
+    EXPECT_EQ(following.weights()[i], weights[i]);
+    EXPECT_EQ(staying.particles()[i].translation, before[i].translation) << "particle " << i;
+  }
+  EXPECT_EQ(following.estimate().translation, refined.translation);
+  EXPECT_TRUE(following.velocity().isApprox(staying.velocity(), 1e-6f));
+}
+
 // move_to (a hidden object carried by another): every particle moved by the same rigid motion that
 // takes the estimate to the new pose, weights kept, dX = that motion.
 TEST(ParticleFilter, MovingToAPoseCarriesTheWholeParticleSetRigidly) {

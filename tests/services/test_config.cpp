@@ -329,6 +329,13 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   expect_rejected(load_tracker_config, "tracker:\n  companion_fraction: 1.5\n", "companion_fraction");
 }
 
+TEST(Config, ParticlesFollowRefinementReachesTheFilter) {
+  EXPECT_TRUE(load_tracker_config(with_defaults("")).filter.particles_follow_replaced_estimate);  // the shipped default
+  EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: false\n"))
+                   .filter.particles_follow_replaced_estimate);
+  expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 0.5\n", "particles_follow_refinement");
+}
+
 TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  discovery:\n    confirm_frames: 20\n    confirm_votes: 4\n    confirm_max_motion: 0.02\n"));

@@ -46,6 +46,12 @@ struct ParticleFilterOptions {
   // already caught up with the turn while this object's own dX still lags it). [0, 1]; 0 = the thesis.
   float companion_fraction = 0.f;
   std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
+  // replace_estimate also moves the whole particle set rigidly with the estimate, so the next step
+  // starts where the caller's refinement (ICP) put the object (departure from the thesis, whose set
+  // only ever moves by its own steps). Left behind, the set stays on the likelihood's own mode, which
+  // on a weakly shaped object such as a hand lies degrees off the surface fit; the caller then pulls
+  // the estimate back every frame until the gap passes its largest correction. false = the set stays.
+  bool particles_follow_replaced_estimate = false;
   // Local refinement of the estimate on the same likelihood (step 6): rounds of a pattern search
   // that tries the estimate moved by +-refine_translation along each axis and turned by
   // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
@@ -134,8 +140,9 @@ class ParticleFilter {
   // (and then follows whatever occludes the object). Throws std::logic_error before reset().
   const Pose& hold();
   // Puts a refined pose in place of the last step's estimate (a caller's own refinement, e.g.
-  // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion. Throws
-  // std::logic_error unless the last call was step().
+  // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion; with
+  // particles_follow_replaced_estimate, the particle set moves rigidly with it (as move_to does, the
+  // weights kept). Throws std::logic_error unless the last call was step().
   const Pose& replace_estimate(const Pose& pose);
   // Moves the whole particle set rigidly so that the estimate becomes `pose` (a hidden object
   // carried by another: CarryMonitor), with dX the move, so the next step predicts it onwards. The
@@ -158,6 +165,7 @@ class ParticleFilter {
   void resample();
   void diffuse_and_predict(float predicted_fraction, const PoseVector* companion);
   void diffuse(float scale);  // N(0, scale^2 C_init) on every particle
+  void move_particles(const Pose& pose);  // every particle by the rigid motion taking the estimate to pose
   void refine(const HypothesisData& data, Likelihood& likelihood, int rounds);
 
   ParticleFilterOptions options_;
