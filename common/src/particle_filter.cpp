@@ -36,6 +36,8 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
   require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
           "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
   o.step_motion().validate("ParticleFilterOptions");
+  require(o.follow_replaced_estimate >= 0.f && o.follow_replaced_estimate <= 1.f,
+          "follow_replaced_estimate must be in [0, 1], got " + std::to_string(o.follow_replaced_estimate));
   require(o.companion_fraction >= 0.f && o.companion_fraction <= 1.f,
           "companion_fraction must be in [0, 1], got " + std::to_string(o.companion_fraction));
   require(std::isfinite(o.refine_translation) && o.refine_translation >= 0.f && o.refine_translation <= 0.1f,
@@ -292,7 +294,13 @@ const Pose& ParticleFilter::hold() {
 
 const Pose& ParticleFilter::replace_estimate(const Pose& pose) {
   if (!stepped_last_) throw std::logic_error("ParticleFilter::replace_estimate called without a step() before it");
-  if (options_.particles_follow_replaced_estimate) move_particles(pose);
+  if (options_.follow_replaced_estimate > 0.f) {
+    const float share = options_.follow_replaced_estimate;
+    Pose followed;
+    followed.translation = estimate_.translation + share * (pose.translation - estimate_.translation);
+    followed.rotation = estimate_.rotation.slerp(share, pose.rotation);
+    move_particles(followed);
+  }
   estimate_ = pose;
   velocity_ = pose_difference(previous_estimate_, estimate_);
   return estimate_;

@@ -370,39 +370,45 @@ TEST(ParticleFilter, AReplacedEstimateGivesTheNextPrediction) {
   EXPECT_THROW(filter.replace_estimate(scene.pose_at(4)), std::logic_error);  // a held frame has no step to refine
 }
 
-// With particles_follow_replaced_estimate, the refined pose takes the particle set with it: every particle
-// moved by the rigid motion from the step's estimate to the refined one, weights and dX as without it.
-// Without it, the set stays where the step left it.
-TEST(ParticleFilter, AReplacedEstimateMovesTheParticlesWhenTheyFollowIt) {
+// With follow_replaced_estimate, the refined pose takes the particle set that share of the way: every particle
+// moved by the rigid motion from the step's estimate to the pose that share of the way to the refined one (all of
+// it at 1), weights and dX as without it. At 0, the set stays where the step left it.
+TEST(ParticleFilter, AReplacedEstimateMovesTheParticlesItsShareOfTheWay) {
   const MovingObject scene;
   JcsdLikelihood likelihood;
   likelihood.set_model(scene.model);
-  ParticleFilterOptions follow_options = tracking_options(21);
-  follow_options.particles_follow_replaced_estimate = true;
-  ParticleFilter following(follow_options);
-  ParticleFilter staying(tracking_options(21));
   const HypothesisData data = test::make_hypothesis(test::transformed(scene.object, scene.pose_at(1)));
-  for (ParticleFilter* filter : {&following, &staying}) {
-    filter->reset(scene.pose_at(0));
-    filter->step(data, likelihood);
+  const PoseVector correction = (PoseVector() << 0.004f, -0.002f, 0.003f, 0.f, 0.05f, -0.08f).finished();
+  for (const float share : {0.f, 0.5f, 1.f}) {
+    ParticleFilterOptions options = tracking_options(21);
+    options.follow_replaced_estimate = share;
+    ParticleFilter filter(options);
+    filter.reset(scene.pose_at(0));
+    filter.step(data, likelihood);
+    const Pose stepped = filter.estimate();
+    const std::vector<Pose> before(filter.particles().begin(), filter.particles().end());
+    const std::vector<float> weights(filter.weights().begin(), filter.weights().end());
+    const Pose refined = apply_increment(stepped, correction);
+    filter.replace_estimate(refined);
+    Pose followed;
+    followed.translation = stepped.translation + share * (refined.translation - stepped.translation);
+    followed.rotation = stepped.rotation.slerp(share, refined.rotation);
+    const Eigen::Isometry3f motion = followed.isometry() * stepped.isometry().inverse();
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      const Pose expected = Pose::from_isometry(motion * before[i].isometry());
+      EXPECT_LT(test::translation_error(filter.particles()[i], expected), 1e-5f) << "share " << share << ", particle " << i;
+      EXPECT_LT(test::rotation_error(filter.particles()[i], expected), 1e-4f) << "share " << share << ", particle " << i;
+      EXPECT_EQ(filter.weights()[i], weights[i]);
+    }
+    if (share == 0.f) {
+      EXPECT_EQ(filter.particles()[0].translation, before[0].translation);  // untouched
+    }
+    EXPECT_EQ(filter.estimate().translation, refined.translation);
+    EXPECT_TRUE(filter.velocity().isApprox(pose_difference(scene.pose_at(0), refined), 1e-5f));  // from the reset pose
   }
-  ASSERT_EQ(following.estimate().translation, staying.estimate().translation);  // same seed, same step
-  const Pose stepped = following.estimate();
-  const std::vector<Pose> before(following.particles().begin(), following.particles().end());
-  const std::vector<float> weights(following.weights().begin(), following.weights().end());
-  const Pose refined = apply_increment(stepped, (PoseVector() << 0.004f, -0.002f, 0.003f, 0.f, 0.05f, -0.08f).finished());
-  following.replace_estimate(refined);
-  staying.replace_estimate(refined);
-  const Eigen::Isometry3f motion = refined.isometry() * stepped.isometry().inverse();
-  for (std::size_t i = 0; i < before.size(); ++i) {
-    const Pose expected = Pose::from_isometry(motion * before[i].isometry());
-    EXPECT_LT(test::translation_error(following.particles()[i], expected), 1e-5f) << "particle " << i;
-    EXPECT_LT(test::rotation_error(following.particles()[i], expected), 1e-4f) << "particle " << i;
-    EXPECT_EQ(following.weights()[i], weights[i]);
-    EXPECT_EQ(staying.particles()[i].translation, before[i].translation) << "particle " << i;
-  }
-  EXPECT_EQ(following.estimate().translation, refined.translation);
-  EXPECT_TRUE(following.velocity().isApprox(staying.velocity(), 1e-6f));
+  ParticleFilterOptions invalid = tracking_options(21);
+  invalid.follow_replaced_estimate = 1.5f;
+  EXPECT_THROW(ParticleFilter{invalid}, std::invalid_argument);
 }
 
 // move_to (a hidden object carried by another): every particle moved by the same rigid motion that

@@ -330,10 +330,11 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
 }
 
 TEST(Config, ParticlesFollowRefinementReachesTheFilter) {
-  EXPECT_TRUE(load_tracker_config(with_defaults("")).filter.particles_follow_replaced_estimate);  // the shipped default
-  EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: false\n"))
-                   .filter.particles_follow_replaced_estimate);
-  expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 0.5\n", "particles_follow_refinement");
+  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0.25\n"))
+                      .filter.follow_replaced_estimate, 0.25f);
+  EXPECT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0\n")).filter.follow_replaced_estimate,
+            0.f);
+  expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 1.5\n", "particles_follow_refinement");
 }
 
 TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {

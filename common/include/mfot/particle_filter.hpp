@@ -46,12 +46,14 @@ struct ParticleFilterOptions {
   // already caught up with the turn while this object's own dX still lags it). [0, 1]; 0 = the thesis.
   float companion_fraction = 0.f;
   std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
-  // replace_estimate also moves the whole particle set rigidly with the estimate, so the next step
-  // starts where the caller's refinement (ICP) put the object (departure from the thesis, whose set
-  // only ever moves by its own steps). Left behind, the set stays on the likelihood's own mode, which
-  // on a weakly shaped object such as a hand lies degrees off the surface fit; the caller then pulls
-  // the estimate back every frame until the gap passes its largest correction. false = the set stays.
-  bool particles_follow_replaced_estimate = false;
+  // replace_estimate also moves the whole particle set rigidly by this share of the correction (the
+  // translation's share, the rotation slerped as far), so the next step starts nearer where the caller's
+  // refinement (ICP) put the object (departure from the thesis, whose set only ever moves by its own
+  // steps). Left behind, the set stays on the likelihood's own mode, which on a weakly shaped object
+  // such as a hand lies degrees off the surface fit, and the caller pulls the estimate back every frame
+  // until the gap passes its largest correction; moved all the way, nothing holds the set against the
+  // refinement's own creep. [0, 1]; 0 = the set stays (thesis).
+  float follow_replaced_estimate = 0.f;
   // Local refinement of the estimate on the same likelihood (step 6): rounds of a pattern search
   // that tries the estimate moved by +-refine_translation along each axis and turned by
   // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
@@ -140,9 +142,9 @@ class ParticleFilter {
   // (and then follows whatever occludes the object). Throws std::logic_error before reset().
   const Pose& hold();
   // Puts a refined pose in place of the last step's estimate (a caller's own refinement, e.g.
-  // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion; with
-  // particles_follow_replaced_estimate, the particle set moves rigidly with it (as move_to does, the
-  // weights kept). Throws std::logic_error unless the last call was step().
+  // IcpRefinement) and takes dX from it, so the next prediction follows the refined motion; the
+  // particle set moves rigidly by follow_replaced_estimate of the correction (the weights kept). Throws
+  // std::logic_error unless the last call was step().
   const Pose& replace_estimate(const Pose& pose);
   // Moves the whole particle set rigidly so that the estimate becomes `pose` (a hidden object
   // carried by another: CarryMonitor), with dX the move, so the next step predicts it onwards. The

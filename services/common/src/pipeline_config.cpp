@@ -96,7 +96,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
   c.filter.companion_fraction = s.get<float>("companion_fraction", 0.f, 1.f);
-  c.filter.particles_follow_replaced_estimate = s.get<bool>("particles_follow_refinement");
+  c.filter.follow_replaced_estimate = s.get<float>("particles_follow_refinement", 0.f, 1.f);
   c.filter.anneal_iterations = s.get<int>("anneal_iterations", 1, 10);
   c.filter.anneal_shrink = s.get<float>("anneal_shrink", 0.01f, 1.f);
   c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
