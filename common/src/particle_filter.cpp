@@ -296,9 +296,11 @@ const Pose& ParticleFilter::replace_estimate(const Pose& pose) {
   if (!stepped_last_) throw std::logic_error("ParticleFilter::replace_estimate called without a step() before it");
   if (options_.follow_replaced_estimate > 0.f) {
     const float share = options_.follow_replaced_estimate;
-    Pose followed;
-    followed.translation = estimate_.translation + share * (pose.translation - estimate_.translation);
-    followed.rotation = estimate_.rotation.slerp(share, pose.rotation);
+    Pose followed = pose;  // all of the way: exactly there
+    if (share < 1.f) {
+      followed.translation = estimate_.translation + share * (pose.translation - estimate_.translation);
+      followed.rotation = estimate_.rotation.slerp(share, pose.rotation);
+    }
     move_particles(followed);
   }
   estimate_ = pose;

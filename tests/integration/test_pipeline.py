@@ -153,8 +153,8 @@ def seeded_config(tmp: Path, seed: int, gripped_away: str | None = None, tracker
                   merger: dict | None = None) -> Path:
     """configs/default.yaml with the scene (layout, sensor noise) and the filters drawn from seed, as
     scripts/seed-matrix runs them (and merger.carry.gripped_away when given; `carry` with the last pose checks off,
-    README "A partly hidden object kept where it was": the two do not combine yet), and the tracker and merger keys
-    given."""
+    README "A partly hidden object kept where it was", and the particles left where the filter's step put them, README
+    "Particles that follow ICP": neither combines with it yet), and the tracker and merger keys given."""
     import yaml
     config = yaml.safe_load((REPO / "configs/default.yaml").read_text())
     config["capture"]["seed"] = seed
@@ -166,6 +166,7 @@ def seeded_config(tmp: Path, seed: int, gripped_away: str | None = None, tracker
         if gripped_away == "carry":
             config["tracker"]["last_pose_check_occluded_share"] = 0
             config["tracker"]["companion_pose_check"] = False  # gated by the share above: ungated at 0
+            config["tracker"]["particles_follow_refinement"] = 0.0  # 1 spins the gripping hand off: the box lost
     path = tmp / f"seed{seed}.yaml"
     path.write_text(yaml.safe_dump(config))
     return path
