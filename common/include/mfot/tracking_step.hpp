@@ -78,8 +78,9 @@ struct TrackingStepOptions {
   StepMotion isolated_motion;
   // Every stepped frame's estimate refined on the model's surface (IcpRefinement on the points left
   // after the occluders and the claimed points are removed; iterations 0 = off, the thesis's weighted
-  // mean); its dX then comes from the refined pose. Departure from the thesis: the JCSD score is
-  // smooth over its 15 mm kernel, so its mode lies degrees from the pose at some views.
+  // mean); its dX then comes from the refined pose, and the particle set moves with it as far as the
+  // filter's follow_replaced_estimate says. Departure from the thesis: the JCSD score is smooth over
+  // its 15 mm kernel, so its mode lies degrees from the pose at some views.
   IcpRefinementOptions icp;
   // The last estimate as a second start (departure from the thesis; README "A partly hidden object kept where
   // it was"). The JCSD score sums the model's density at the scene points, so where part of an object is
