@@ -16,6 +16,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "scripts"))
 import mfot_lcm  # noqa: E402
+from mfot_script_module import load_script  # noqa: E402
 
 BUILD = Path(os.environ.get("MFOT_BUILD_DIR", REPO / "build"))
 
@@ -122,13 +123,7 @@ README_APART_STEP = {"seed": 67, "frames": 40, "segmentation": 0.9915}
 
 def seed_matrix_module():
     """scripts/seed-matrix as a module (its ROC of the confidence)."""
-    import importlib.machinery
-    import importlib.util
-    loader = importlib.machinery.SourceFileLoader("seed_matrix", str(REPO / "scripts/seed-matrix"))
-    spec = importlib.util.spec_from_loader("seed_matrix", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return load_script(REPO / "scripts/seed-matrix", "seed_matrix")
 
 
 def run_inprocess(tmp: Path, scenario: str, *args: str, config: Path = REPO / "configs/default.yaml") -> dict:

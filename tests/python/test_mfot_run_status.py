@@ -3,8 +3,6 @@ a terminal, and one plain summary line for logs."""
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
 import sys
 import unittest
 from pathlib import Path
@@ -12,10 +10,9 @@ from types import SimpleNamespace
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "scripts"))
-_loader = importlib.machinery.SourceFileLoader("mfot_run", str(REPO / "scripts" / "mfot-run"))
-_spec = importlib.util.spec_from_loader("mfot_run", _loader)
-mfot_run = importlib.util.module_from_spec(_spec)
-_loader.exec_module(mfot_run)
+from mfot_script_module import load_script  # noqa: E402
+
+mfot_run = load_script(REPO / "scripts" / "mfot-run", "mfot_run")
 
 
 def status(service: str, instance: int = 0, **kw) -> SimpleNamespace:

@@ -4,8 +4,6 @@ mfot-evaluate (the seeds reach capture.seed and tracker.seed, so the two runs di
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
 import json
 import os
 import subprocess
@@ -17,20 +15,14 @@ from pathlib import Path
 SOURCE_DIR = Path(os.environ.get("MFOT_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 BUILD_DIR = Path(os.environ.get("MFOT_BINARY_DIR", SOURCE_DIR / "build"))
 SCRIPT = SOURCE_DIR / "scripts" / "seed-matrix"
-
-
-def load_script():
-    loader = importlib.machinery.SourceFileLoader("seed_matrix", str(SCRIPT))
-    spec = importlib.util.spec_from_loader("seed_matrix", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+sys.path.insert(0, str(SOURCE_DIR / "scripts"))
+from mfot_script_module import load_script  # noqa: E402
 
 
 class SeedMatrixTest(unittest.TestCase):
     def test_seed_lists(self):
         try:
-            module = load_script()
+            module = load_script(SCRIPT, "seed_matrix")
         except ModuleNotFoundError as e:  # python3-yaml missing from this interpreter
             self.skipTest(str(e))
         self.assertEqual(module.parse_seeds("1-3"), [1, 2, 3])
@@ -64,7 +56,7 @@ class SeedMatrixTest(unittest.TestCase):
 class RocTest(unittest.TestCase):
     def setUp(self):
         try:
-            self.module = load_script()
+            self.module = load_script(SCRIPT, "seed_matrix")
         except ModuleNotFoundError as e:
             self.skipTest(str(e))
 
