@@ -121,11 +121,6 @@ README_CONFIDENCE_ROTATE = {"seed": 4, "tracker": {"icp_iterations": 0, "compani
 README_APART_STEP = {"seed": 67, "frames": 40, "segmentation": 0.9915}
 
 
-def seed_matrix_module():
-    """scripts/seed-matrix as a module (its ROC of the confidence)."""
-    return load_script(REPO / "scripts/seed-matrix", "seed_matrix")
-
-
 def run_inprocess(tmp: Path, scenario: str, *args: str, config: Path = REPO / "configs/default.yaml") -> dict:
     """Runs a scenario through mfot-inprocess (CPU) and scores it with mfot-evaluate: the run's evaluation (its
     per-frame rows, mfot-evaluate's frames CSV, under "frames")."""
@@ -338,12 +333,11 @@ class PipelineTest(unittest.TestCase):
     def test_the_confidence_tells_the_wrong_frames(self):
         """`rotate` seed 4 with ICP off (and the companion pose check, which without ICP still keeps the gripped box
         where the hand takes it, the particles following the last pose check, and the propagation guard), so that its
-        gripped box is over 10 deg off in hundreds
-        of frames: the ROC AUC
-        of the published confidence against those frames is within 0.03 of the README's 0.882 (0.664 from the fit
-        alone, so the test fails without the seen-through share)."""
+        gripped box is over 10 deg off in hundreds of frames: the ROC AUC of the published confidence against those
+        frames is within 0.03 of the README's 0.882 (0.664 from the fit alone, so the test fails without the
+        seen-through share)."""
         want = README_CONFIDENCE_ROTATE
-        matrix = seed_matrix_module()
+        matrix = load_script(REPO / "scripts/seed-matrix", "seed_matrix")  # its ROC of the confidence
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "rotate", config=seeded_config(Path(tmp), want["seed"], tracker=want["tracker"],
                                                                         merger=want["merger"]))
