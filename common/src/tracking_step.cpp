@@ -33,15 +33,19 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.confidence_seen_through_weight must be in [0, 100], got " +
                                 std::to_string(confidence_seen_through_weight));
   }
-  if (confidence_seen_through_weight > 0.f && !(hold_occluded_share > 0.f)) {
-    throw std::invalid_argument(
-        "TrackingStepOptions.confidence_seen_through_weight needs hold_occluded_share > 0: the scene's rays are "
-        "indexed there");
-  }
   if (!(hold_occluded_share >= 0.f && hold_occluded_share <= 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
                                 std::to_string(hold_occluded_share));
   }
+  // The hold's occlusion test is what indexes the scene's rays and measures the occluded share; three settings
+  // read them.
+  const auto needs_occlusion_test = [&](bool used, const std::string& field, const std::string& why) {
+    if (used && !(hold_occluded_share > 0.f)) {
+      throw std::invalid_argument("TrackingStepOptions." + field + " needs hold_occluded_share > 0: " + why);
+    }
+  };
+  needs_occlusion_test(confidence_seen_through_weight > 0.f, "confidence_seen_through_weight",
+                       "the scene's rays are indexed there");
   if (!(exclude_claimed_radius >= 0.f && exclude_claimed_radius <= 0.1f)) {
     throw std::invalid_argument("TrackingStepOptions.exclude_claimed_radius must be in [0, 0.1] metres, got " +
                                 std::to_string(exclude_claimed_radius));
@@ -65,16 +69,10 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_occluded_share must be in [0, 1], got " +
                                 std::to_string(last_pose_check_occluded_share));
   }
-  if (last_pose_check_occluded_share > 0.f && !(hold_occluded_share > 0.f)) {
-    throw std::invalid_argument(
-        "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0: the occluded share is "
-        "measured there");
-  }
-  if (companion_pose_check && !(hold_occluded_share > 0.f)) {
-    throw std::invalid_argument(
-        "TrackingStepOptions.companion_pose_check needs hold_occluded_share > 0: the seen-through share needs the "
-        "scene's rays, indexed there");
-  }
+  needs_occlusion_test(last_pose_check_occluded_share > 0.f, "last_pose_check_occluded_share",
+                       "the occluded share is measured there");
+  needs_occlusion_test(companion_pose_check, "companion_pose_check",
+                       "the seen-through share needs the scene's rays, indexed there");
   if (!(last_pose_check_margin >= 0.f && last_pose_check_margin < 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
                                 std::to_string(last_pose_check_margin));

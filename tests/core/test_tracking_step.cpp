@@ -10,6 +10,7 @@
 #include <optional>
 #include <span>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 #include <tuple>
 #include <utility>
@@ -50,6 +51,16 @@ TrackingStepOptions occlusion_aware() {
   o.exclude_occluders = true;
   o.hold_occluded_share = 0.6f;
   return o;
+}
+
+// Constructing a TrackingStep from o throws std::invalid_argument whose message holds text.
+void expect_invalid_with(const TrackingStepOptions& o, const std::string& text) {
+  try {
+    TrackingStep step{o};
+    ADD_FAILURE() << "no std::invalid_argument; expected one saying: " << text;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+  }
 }
 
 ParticleFilterOptions filter_options() {
@@ -701,7 +712,7 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.last_pose_check_margin = 0.02f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the occluded share is not measured
-  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  expect_invalid_with(o, "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0");
   o = occlusion_aware();
   o.confidence_seen_through_weight = -1.f;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
@@ -710,12 +721,12 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.confidence_seen_through_weight = 2.f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the scene's rays are not indexed
-  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  expect_invalid_with(o, "TrackingStepOptions.confidence_seen_through_weight needs hold_occluded_share > 0");
   o = occlusion_aware();
   o.companion_pose_check = true;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the seen-through share needs the scene's rays
-  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
+  expect_invalid_with(o, "TrackingStepOptions.companion_pose_check needs hold_occluded_share > 0");
 }
 
 }  // namespace
