@@ -2,6 +2,7 @@
 
 #include "mfot/individuation.hpp"
 
+#include "expect_invalid_argument.hpp"
 #include "preprocess_test_scene.hpp"
 
 #include <gtest/gtest.h>
@@ -391,12 +392,7 @@ TEST(Preprocessor, RejectsInvalidInput) {
 }
 
 void expect_invalid_option(const PreprocessorOptions& options, const std::string& field) {
-  try {
-    Preprocessor preprocessor(options);
-    ADD_FAILURE() << "no exception for " << field;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-  }
+  test::expect_invalid_argument([&] { Preprocessor preprocessor(options); }, field);
 }
 
 TEST(PreprocessorOptions, InvalidValuesNameTheField) {

@@ -1,6 +1,7 @@
 #include "mfot/jcsd_likelihood.hpp"
 #include "mfot/smr_feature.hpp"
 #include "mfot/tracking_step.hpp"
+#include "expect_invalid_argument.hpp"
 #include "synthetic_object.hpp"
 
 #include <gtest/gtest.h>
@@ -55,12 +56,7 @@ TrackingStepOptions occlusion_aware() {
 
 // Constructing a TrackingStep from o throws std::invalid_argument whose message holds text.
 void expect_invalid_with(const TrackingStepOptions& o, const std::string& text) {
-  try {
-    TrackingStep step{o};
-    ADD_FAILURE() << "no std::invalid_argument; expected one saying: " << text;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
-  }
+  test::expect_invalid_argument([&] { TrackingStep step{o}; }, text);
 }
 
 ParticleFilterOptions filter_options() {
