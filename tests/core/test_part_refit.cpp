@@ -1,4 +1,5 @@
 #include "mfot/part_refit.hpp"
+#include "expect_invalid_argument.hpp"
 #include "synthetic_object.hpp"
 
 #include <Eigen/SVD>
@@ -192,41 +193,24 @@ TEST(PartRefit, RejectsPartsThatDoNotDescribeTheModel) {
   const auto size = static_cast<std::uint32_t>(box.model.size());
   for (const std::vector<std::uint32_t>& ends :
        {std::vector<std::uint32_t>{}, std::vector<std::uint32_t>{size - 1}, std::vector<std::uint32_t>{20, 10, size}}) {
-    try {
-      refit.refit(box.scene, box.model, ends, box.truth);
-      ADD_FAILURE() << "accepted part ends of " << ends.size();
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("part_ends"), std::string::npos) << e.what();
-    }
+    SCOPED_TRACE(ends.size());
+    test::expect_invalid_argument([&] { refit.refit(box.scene, box.model, ends, box.truth); }, "part_ends");
   }
 }
 
 TEST(PartRefit, InvalidOptionsAreRejectedNamingTheField) {
-  const auto message = [](const PartRefitOptions& o) {
-    try {
-      o.validate();
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string();
+  EXPECT_NO_THROW(enabled().validate());
+  const auto rejected = [](auto mutate, const std::string& field) {
+    PartRefitOptions o = enabled();
+    mutate(o);
+    test::expect_invalid_argument([&] { o.validate(); }, "PartRefitOptions." + field);
+    EXPECT_THROW(PartRefit{o}, std::invalid_argument);
   };
-  PartRefitOptions o = enabled();
-  EXPECT_EQ(message(o), "");
-  o.min_coverage = 1.5f;
-  EXPECT_NE(message(o).find("PartRefitOptions.min_coverage"), std::string::npos) << message(o);
-  o = enabled();
-  o.min_points = 2;
-  EXPECT_NE(message(o).find("PartRefitOptions.min_points"), std::string::npos) << message(o);
-  o = enabled();
-  o.min_rotation = -0.1f;
-  EXPECT_NE(message(o).find("PartRefitOptions.min_rotation"), std::string::npos) << message(o);
-  o = enabled();
-  o.icp.iterations = 0;
-  EXPECT_NE(message(o).find("PartRefitOptions.icp.iterations"), std::string::npos) << message(o);
-  o = enabled();
-  o.icp.max_distance = 0.f;
-  EXPECT_NE(message(o).find("PartRefitOptions.icp.max_distance"), std::string::npos) << message(o);
-  EXPECT_THROW(PartRefit{o}, std::invalid_argument);
+  rejected([](PartRefitOptions& o) { o.min_coverage = 1.5f; }, "min_coverage");
+  rejected([](PartRefitOptions& o) { o.min_points = 2; }, "min_points");
+  rejected([](PartRefitOptions& o) { o.min_rotation = -0.1f; }, "min_rotation");
+  rejected([](PartRefitOptions& o) { o.icp.iterations = 0; }, "icp.iterations");
+  rejected([](PartRefitOptions& o) { o.icp.max_distance = 0.f; }, "icp.max_distance");
 }
 
 }  // namespace
