@@ -90,6 +90,11 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
     return static_cast<float>(covered) >= options_.min_coverage * static_cast<float>(part_ends[part] - begin);
   };
   if (!seen_well(0)) return 0;
+  seen_parts_.clear();
+  for (std::size_t part = 1; part < part_ends.size(); ++part) {
+    if (seen_well(part)) seen_parts_.push_back(part);
+  }
+  if (seen_parts_.empty()) return 0;  // nothing to re-fit: the first view's registration would go unused
   // 3. the pose the first view gives
   const IcpResult first_view =
       first_view_icp_.refine(part_scene_[0], model.subspan(0, part_ends[0]), estimate);
@@ -97,8 +102,7 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
   // 4.-5. each grown part's misplacement, undone
   std::size_t moved = 0;
-  for (std::size_t part = 1; part < part_ends.size(); ++part) {
-    if (!seen_well(part)) continue;
+  for (const std::size_t part : seen_parts_) {
     const std::span<Eigen::Vector3f> points = model.subspan(part_ends[part - 1], part_ends[part] - part_ends[part - 1]);
     const IcpResult fitted = part_icp_.refine(part_scene_[part], points, first_view.pose);
     if (!fitted.refined) continue;

@@ -14,7 +14,7 @@
 //     face does not hold the rotation about its long axis), and covering at least min_coverage of the
 //     part's model points (a scene point within icp.max_distance of them): a face seen only in part
 //     does not hold its place along itself, so its registration slides and the object's frame would
-//     drift with it;
+//     drift with it. Nothing moves unless the first view and at least one grown part take part;
 //  3. the first view (part 0) alone is registered on its scene points by ICP from the estimate
 //     (IcpRefinement, point to point): the pose that the object's frame, as first seen, gives;
 //  4. each grown part alone is registered on its scene points by ICP from that pose; the difference
@@ -76,6 +76,7 @@ class PartRefit {
   IcpRefinement first_view_icp_;
   IcpRefinement part_icp_;
   std::vector<std::vector<Eigen::Vector3f>> part_scene_;  // per part: its scene points, camera frame
+  std::vector<std::size_t> seen_parts_;                    // the grown parts seen well (step 2)
 };
 
 }  // namespace mfot
