@@ -145,9 +145,8 @@ def run_inprocess(tmp: Path, scenario: str, *args: str, config: Path = REPO / "c
 def seeded_config(tmp: Path, seed: int, gripped_away: str | None = None, tracker: dict | None = None,
                   merger: dict | None = None) -> Path:
     """configs/default.yaml with the scene (layout, sensor noise) and the filters drawn from seed, as
-    scripts/seed-matrix runs them (and merger.carry.gripped_away when given; `carry` with the last pose checks off,
-    README "A partly hidden object kept where it was", and the particles left where the filter's step put them, README
-    "Particles that follow ICP": neither combines with it yet), and the tracker and merger keys given."""
+    scripts/seed-matrix runs them (and merger.carry.gripped_away when given; `carry` as configs/carry.yaml lays it
+    over the defaults, with the tracker settings it needs), and the tracker and merger keys given."""
     import yaml
     config = yaml.safe_load((REPO / "configs/default.yaml").read_text())
     config["capture"]["seed"] = seed
@@ -157,9 +156,9 @@ def seeded_config(tmp: Path, seed: int, gripped_away: str | None = None, tracker
     if gripped_away is not None:
         config["merger"]["carry"]["gripped_away"] = gripped_away
         if gripped_away == "carry":
-            config["tracker"]["last_pose_check_occluded_share"] = 0
-            config["tracker"]["companion_pose_check"] = False  # gated by the share above: ungated at 0
-            config["tracker"]["particles_follow_refinement"] = 0.0  # 1 spins the gripping hand off: the box lost
+            carry = yaml.safe_load((REPO / "configs/carry.yaml").read_text())
+            config["merger"]["carry"].update(carry["merger"]["carry"])
+            config["tracker"].update(carry["tracker"])
     path = tmp / f"seed{seed}.yaml"
     path.write_text(yaml.safe_dump(config))
     return path

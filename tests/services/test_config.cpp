@@ -315,6 +315,27 @@ TEST(Config, RefitKeysReachTheManager) {
   }
 }
 
+TEST(Config, CarryModeIsRefusedWithTheTrackerSettingsItDoesNotCombineWith) {
+  const std::string carry = "merger:\n  carry:\n    gripped_away: carry\n";
+  // The defaults keep both on: each is named.
+  expect_rejected(load_merger_config, carry, "tracker.last_pose_check_occluded_share");
+  expect_rejected(load_merger_config, carry, "tracker.particles_follow_refinement");
+  expect_rejected(load_merger_config, carry + "tracker:\n  last_pose_check_occluded_share: 0\n",
+                  "tracker.particles_follow_refinement");
+  expect_rejected(load_merger_config, carry + "tracker:\n  particles_follow_refinement: 0\n",
+                  "tracker.last_pose_check_occluded_share");
+  const MergerConfig both_off = load_merger_config(with_defaults(
+      carry + "tracker:\n  last_pose_check_occluded_share: 0\n  particles_follow_refinement: 0\n"));
+  EXPECT_EQ(both_off.manager.carry.gripped_away, CarryOptions::GrippedAway::kCarry);
+  // The shipped overlay sets what carry mode needs, and the trackers load it too.
+  const YAML::Node overlay = load_config_file(std::string(MFOT_SOURCE_DIR) + "/configs/carry.yaml");
+  EXPECT_EQ(load_merger_config(overlay).manager.carry.gripped_away, CarryOptions::GrippedAway::kCarry);
+  const TrackerConfig tracker = load_tracker_config(overlay);
+  EXPECT_EQ(tracker.step.last_pose_check_occluded_share, 0.f);
+  EXPECT_FALSE(tracker.step.companion_pose_check);
+  EXPECT_EQ(tracker.filter.follow_replaced_estimate, 0.f);
+}
+
 TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  companion:\n    contact_distance: 0.015\n    min_motion: 0.004\n    min_turn_deg: 2\n"));

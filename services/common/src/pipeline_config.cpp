@@ -242,6 +242,20 @@ MergerConfig load_merger_config(const YAML::Node& root) {
                                      ? CarryOptions::GrippedAway::kRetire
                                      : CarryOptions::GrippedAway::kCarry;
   carry.finish();
+  if (c.manager.carry.gripped_away == CarryOptions::GrippedAway::kCarry) {
+    // Measured to lose the carried box (README "Carry mode and the trackers' settings"): refused here, where both
+    // sections are in view, rather than discovered in a run.
+    auto tracker = config_section(root, "tracker");
+    const bool last_pose_check = tracker.get<float>("last_pose_check_occluded_share", 0.f, 1.f) > 0.f;
+    const bool particles_follow = tracker.get<float>("particles_follow_refinement", 0.f, 1.f) > 0.f;
+    if (last_pose_check || particles_follow) {
+      throw ConfigError("merger.carry.gripped_away: carry does not combine with " +
+                        std::string(last_pose_check ? "tracker.last_pose_check_occluded_share > 0" : "") +
+                        (last_pose_check && particles_follow ? " or " : "") +
+                        (particles_follow ? "tracker.particles_follow_refinement > 0" : "") +
+                        " (the carried box is lost): set them to 0, as configs/carry.yaml does");
+    }
+  }
   auto companion = s.section("companion");
   c.manager.companion.contact_distance = companion.get<float>("contact_distance", 0.f, 0.1f);
   c.manager.companion.min_motion = companion.get<float>("min_motion", 1e-4f, 1.f);
