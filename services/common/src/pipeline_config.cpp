@@ -253,7 +253,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
                         std::string(last_pose_check ? "tracker.last_pose_check_occluded_share > 0" : "") +
                         (last_pose_check && particles_follow ? " or " : "") +
                         (particles_follow ? "tracker.particles_follow_refinement > 0" : "") +
-                        " (the carried box is lost): set them to 0, as configs/carry.yaml does");
+                        " (the carried box is lost): set " + (last_pose_check && particles_follow ? "them" : "it") +
+                        " to 0, as configs/carry.yaml does");
     }
   }
   auto companion = s.section("companion");
