@@ -52,6 +52,21 @@ class SeedMatrixTest(unittest.TestCase):
             self.assertNotEqual(poses[0], poses[1])  # other sensor noise and filter draws
 
 
+    def test_a_refused_config_stops_the_matrix_with_the_services_reason(self):
+        if not (BUILD_DIR / "services" / "inprocess" / "mfot-inprocess").is_file():
+            self.skipTest(f"no build in {BUILD_DIR}")
+        with tempfile.TemporaryDirectory() as tmp:
+            config = Path(tmp) / "bad.yaml"
+            config.write_text("tracker:\n  particles: 0\n")
+            result = subprocess.run([sys.executable, str(SCRIPT), "--scenarios", "static,stack", "--seeds", "1-3",
+                                     "--max-frames", "5", "--jobs", "2", "--config", str(config), "--out", tmp,
+                                     "--build-dir", str(BUILD_DIR)], capture_output=True, text=True, timeout=170)
+            if result.returncode != 0 and "No module named 'yaml'" in result.stderr:
+                self.skipTest("python3-yaml missing from this interpreter")
+            self.assertNotEqual(result.returncode, 0)
+            self.assertIn("configuration refused: tracker.particles", result.stderr)
+            self.assertNotIn("Traceback", result.stderr)
+
 
 class RocTest(unittest.TestCase):
     def setUp(self):
