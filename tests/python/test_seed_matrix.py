@@ -51,7 +51,6 @@ class SeedMatrixTest(unittest.TestCase):
             self.assertEqual(len(roc), 1 + 2 * 21)  # static and all, 21 thresholds each
             self.assertNotEqual(poses[0], poses[1])  # other sensor noise and filter draws
 
-
     def test_a_refused_config_stops_the_matrix_with_the_services_reason(self):
         if not (BUILD_DIR / "services" / "inprocess" / "mfot-inprocess").is_file():
             self.skipTest(f"no build in {BUILD_DIR}")

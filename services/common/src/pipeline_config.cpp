@@ -26,11 +26,18 @@ int auto_preprocess_threads() {
 
 // The tracker keys that the merger shares: the JCSD cell and the confidence measure (its
 // re-identification registration), the hypothesis margin and the claim radius (what it sends with
-// each model); read the same way, with the same ranges, by both loaders.
+// each model), and the two settings carry mode needs off; read the same way, with the same ranges, by
+// both loaders.
 float read_cell_size(ConfigSection& tracker) { return tracker.get<float>("cell_size", 0.001f, 0.2f); }
 
 float read_hypothesis_margin(ConfigSection& tracker) { return tracker.get<float>("hypothesis_margin", 0.f, 1.f); }
 float read_claim_radius(ConfigSection& tracker) { return tracker.get<float>("exclude_claimed_radius", 0.f, 0.1f); }
+float read_last_pose_check_share(ConfigSection& tracker) {
+  return tracker.get<float>("last_pose_check_occluded_share", 0.f, 1.f);
+}
+float read_particles_follow(ConfigSection& tracker) {
+  return tracker.get<float>("particles_follow_refinement", 0.f, 1.f);
+}
 
 EstimateFitOptions read_fit_options(ConfigSection& tracker) {
   EstimateFitOptions fit;
@@ -96,7 +103,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
   c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
   c.filter.companion_fraction = s.get<float>("companion_fraction", 0.f, 1.f);
-  c.filter.follow_replaced_estimate = s.get<float>("particles_follow_refinement", 0.f, 1.f);
+  c.filter.follow_replaced_estimate = read_particles_follow(s);
   c.filter.anneal_iterations = s.get<int>("anneal_iterations", 1, 10);
   c.filter.anneal_shrink = s.get<float>("anneal_shrink", 0.01f, 1.f);
   c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
@@ -127,7 +134,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.icp.final_iterations = s.get<int>("icp_final_iterations", 0, 50);
   c.step.icp.final_points = s.get<int>("icp_final_points", 3, 1000000);
   c.step.icp.anchor_weight = s.get<float>("icp_anchor_weight", 1.f, 1000.f);
-  c.step.last_pose_check_occluded_share = s.get<float>("last_pose_check_occluded_share", 0.f, 1.f);
+  c.step.last_pose_check_occluded_share = read_last_pose_check_share(s);
   c.step.last_pose_check_points = s.get<int>("last_pose_check_points", 3, 1000000);
   c.step.last_pose_check_margin = s.get<float>("last_pose_check_margin", 0.f, 0.99f);
   c.step.companion_pose_check = s.get<bool>("companion_pose_check");
@@ -246,8 +253,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     // Measured to lose the carried box (README "Carry mode and the trackers' settings"): refused here, where both
     // sections are in view, rather than discovered in a run.
     auto tracker = config_section(root, "tracker");
-    const bool last_pose_check = tracker.get<float>("last_pose_check_occluded_share", 0.f, 1.f) > 0.f;
-    const bool particles_follow = tracker.get<float>("particles_follow_refinement", 0.f, 1.f) > 0.f;
+    const bool last_pose_check = read_last_pose_check_share(tracker) > 0.f;
+    const bool particles_follow = read_particles_follow(tracker) > 0.f;
     if (last_pose_check || particles_follow) {
       throw ConfigError("merger.carry.gripped_away: carry does not combine with " +
                         std::string(last_pose_check ? "tracker.last_pose_check_occluded_share > 0" : "") +
