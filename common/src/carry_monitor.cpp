@@ -56,7 +56,7 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
            drift.angle() <= radians(options_.rotation_deg);
   }
   if (!kept) {
-    watch = Watch{{relative}, neighbour.pose, relative, 1, false};
+    watch = Watch{{relative}, neighbour.pose, object.pose, relative, 1, false, false};
     return;
   }
   ++watch.frames;
@@ -65,6 +65,7 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
   if (watch.recent.size() > static_cast<std::size_t>(options_.frames)) watch.recent.pop_front();
   watch.neighbour_moved =
       watch.neighbour_moved || motion_units(neighbour.pose, watch.neighbour_at_start, options_) >= 1.f;
+  watch.object_moved = watch.object_moved || motion_units(object.pose, watch.object_at_start, options_) >= 1.f;
 }
 
 void CarryMonitor::observe_hidden(const Object& object, const Object& neighbour) {
@@ -90,7 +91,10 @@ const CarryMonitor::Object* CarryMonitor::watched_carrier(const Object& object, 
   for (const Object& neighbour : objects) {
     if (neighbour.hidden || neighbour.id == object.id) continue;
     const auto it = watches_.find({object.id, neighbour.id});
-    if (it == watches_.end() || it->second.frames < options_.frames || !it->second.neighbour_moved) continue;
+    if (it == watches_.end() || it->second.frames < options_.frames || !it->second.neighbour_moved ||
+        !it->second.object_moved) {
+      continue;
+    }
     const std::tuple<int, std::int32_t> rank{it->second.frames, -neighbour.id};
     if (carrier == nullptr || rank > best) {
       best = rank;

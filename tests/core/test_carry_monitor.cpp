@@ -112,6 +112,17 @@ TEST(CarryMonitor, StillApartShortOrForgottenCompanionsCarryNothing) {
     CarryMonitor monitor(carry_options());
     EXPECT_EQ(hide_after(monitor, hand, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch), 0u);
   }
+  {  // a hand creeping past a still box, 0.5 cm a frame: each 5-frame window stays within the 3 cm tolerance and
+     // the hand moves 10 cm in all, but the box never moved with it (`stack` seed 36: an arm drifting over a can
+     // carried it 6 cm off once it hid the can)
+    CarryMonitor monitor(carry_options());
+    const auto creeping = [&](int f) {
+      Pose p = scene.hand_at(0);
+      p.translation.x() += 0.005f * static_cast<float>(f);
+      return p;
+    };
+    EXPECT_EQ(hide_after(monitor, creeping, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch), 0u);
+  }
   {  // moving together but never touching
     CarryMonitor monitor(carry_options());
     EXPECT_EQ(hide_after(monitor, hand, box, 20, [](std::int32_t, std::int32_t) { return false; }), 0u);

@@ -12,11 +12,13 @@
 //      row it stayed within translation / rotation_deg of what it was `frames` seen frames before (a
 //      sliding window, so that a grip held for seconds, over which the two estimates drift apart by
 //      more than the tolerance, still counts) and notes whether the other moved min_motion or turned
-//      min_turn_deg since the watch began; beyond the tolerance, or no longer touching, the watch
-//      starts over. Watches of hidden objects wait (neither counted
-//      nor reset) until they are seen again;
+//      min_turn_deg since the watch began, and whether the object itself did (a hand creeping past a
+//      still object, slower than the tolerance per window, keeps the window but never moved it:
+//      `stack` seed 36's arm carried a can it hid 6 cm off); beyond the tolerance, or no longer
+//      touching, the watch starts over. Watches of hidden objects wait (neither counted nor reset)
+//      until they are seen again;
 //   2. a hidden object is carried by the seen neighbour whose watch ran at least `frames` frames with
-//      that motion (the longest such watch; ties: the lower id);
+//      both motions (the longest such watch; ties: the lower id);
 //   3. its pose is that neighbour's pose composed with their relative pose of the object's last seen
 //      frame.
 // A hand may cover a box before it grips it (`apart`: the box is hidden from the frame the hand
@@ -111,9 +113,11 @@ class CarryMonitor {
     // The object's pose in the neighbour's frame over the last `frames` seen frames, oldest first.
     std::deque<Eigen::Isometry3f> recent;
     Pose neighbour_at_start;
+    Pose object_at_start;
     Eigen::Isometry3f last_seen = Eigen::Isometry3f::Identity();  // the latest seen relative pose
     int frames = 0;
-    bool neighbour_moved = false;
+    bool neighbour_moved = false;  // since the watch began ...
+    bool object_moved = false;     // ... and the object too
   };
   // A hidden object's pose in a seen neighbour's frame at the grip (steps 4-6).
   struct HiddenWatch {
