@@ -56,7 +56,11 @@ void CarryMonitor::observe(const Object& object, const Object& neighbour) {
            drift.angle() <= radians(options_.rotation_deg);
   }
   if (!kept) {
-    watch = Watch{{relative}, neighbour.pose, object.pose, relative, 1, false, false};
+    watch = Watch{.recent = {relative},
+                  .neighbour_at_start = neighbour.pose,
+                  .object_at_start = object.pose,
+                  .last_seen = relative,
+                  .frames = 1};
     return;
   }
   ++watch.frames;
