@@ -253,15 +253,13 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     // Measured to lose the carried box (README "Carry mode and the trackers' settings"): refused here, where both
     // sections are in view, rather than discovered in a run.
     auto tracker = config_section(root, "tracker");
-    const bool last_pose_check = read_last_pose_check_share(tracker) > 0.f;
-    const bool particles_follow = read_particles_follow(tracker) > 0.f;
-    if (last_pose_check || particles_follow) {
-      throw ConfigError("merger.carry.gripped_away: carry does not combine with " +
-                        std::string(last_pose_check ? "tracker.last_pose_check_occluded_share > 0" : "") +
-                        (last_pose_check && particles_follow ? " or " : "") +
-                        (particles_follow ? "tracker.particles_follow_refinement > 0" : "") +
-                        " (the carried box is lost): set " + (last_pose_check && particles_follow ? "them" : "it") +
-                        " to 0, as configs/carry.yaml does");
+    std::vector<std::string> on;  // the settings that must be 0
+    if (read_last_pose_check_share(tracker) > 0.f) on.push_back("tracker.last_pose_check_occluded_share > 0");
+    if (read_particles_follow(tracker) > 0.f) on.push_back("tracker.particles_follow_refinement > 0");
+    if (!on.empty()) {
+      throw ConfigError("merger.carry.gripped_away: carry does not combine with " + on.front() +
+                        (on.size() > 1 ? " or " + on.back() : "") + " (the carried box is lost): set " +
+                        (on.size() > 1 ? "them" : "it") + " to 0, as configs/carry.yaml does");
     }
   }
   auto companion = s.section("companion");
