@@ -37,9 +37,15 @@ VoxelDownsampler::VoxelDownsampler(float leaf_size) : leaf_size_(leaf_size), inv
   inv_leaf_ = 1.f / leaf_size;
 }
 
+void VoxelDownsampler::set_grid_origin(const Eigen::Vector3f& origin) {
+  if (!origin.allFinite()) throw std::invalid_argument("VoxelDownsampler: the grid origin must be finite");
+  grid_origin_ = origin;
+}
+
 std::uint64_t VoxelDownsampler::key_of(const Eigen::Vector3f& p) const {
-  return packed_coord(p.x() * inv_leaf_) | (packed_coord(p.y() * inv_leaf_) << kCoordBits) |
-         (packed_coord(p.z() * inv_leaf_) << (2 * kCoordBits));
+  const Eigen::Vector3f scaled = (p - grid_origin_) * inv_leaf_;
+  return packed_coord(scaled.x()) | (packed_coord(scaled.y()) << kCoordBits) |
+         (packed_coord(scaled.z()) << (2 * kCoordBits));
 }
 
 int VoxelDownsampler::find_or_insert(std::uint64_t key, std::uint32_t source_id) {

@@ -23,6 +23,27 @@ void require(bool ok, const char* field, const std::string& range) {
 bool finite_in(float v, float lo, float hi) { return std::isfinite(v) && v > lo && v <= hi; }
 
 constexpr float kMetresPerMillimetre = 0.001f;
+
+// SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator, so a frame's draw depends on
+// the seed and its seq alone, never on which frames came before (a replay that skips frames
+// draws the same grids for the frames it keeps).
+std::uint64_t splitmix64(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+// The voxel grid's corner for one frame: uniform in [0, leaf)^3.
+Eigen::Vector3f jittered_grid_origin(std::uint64_t seed, std::int64_t frame_seq, float leaf) {
+  std::uint64_t state = seed ^ (static_cast<std::uint64_t>(frame_seq) * 0xD1B54A32D192ED03ull);
+  Eigen::Vector3f origin;
+  for (int axis = 0; axis < 3; ++axis) {
+    constexpr float kUnit = 1.f / 16777216.f;  // 24 random bits to [0, 1)
+    origin[axis] = leaf * static_cast<float>(splitmix64(state) >> 40) * kUnit;
+  }
+  return origin;
+}
 constexpr int kMaxImageSide = 32767;  // pixel coordinates travel as int16
 
 }  // namespace
@@ -35,6 +56,7 @@ void SceneCloud::clear() {
   cluster.clear();
   num_clusters = 0;
   plane = TablePlane{};
+  voxel_origin = Eigen::Vector3f::Zero();
 }
 
 void PreprocessorOptions::validate() const {
@@ -70,7 +92,7 @@ void Preprocessor::reset_plane() {
   plane_fitted_share_ = 0.f;
 }
 
-const SceneCloud& Preprocessor::process(const RgbdImageView& image) {
+const SceneCloud& Preprocessor::process(const RgbdImageView& image, std::int64_t frame_seq) {
   const auto t0 = Clock::now();
   stats_ = PreprocessStats{};
 
@@ -91,6 +113,9 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image) {
                         : std::span<const std::uint32_t>(above_pixels_.data(), above_count_);
   stats_.above_plane = kept_positions.size();
 
+  if (options_.voxel_jitter) {
+    voxels_.set_grid_origin(jittered_grid_origin(options_.voxel_jitter_seed, frame_seq, options_.voxel_size));
+  }
   const std::size_t voxel_count = voxels_.downsample(kept_positions, kept_colors, kept_pixels, &pool_);
   stats_.voxels = voxel_count;
 
@@ -107,6 +132,7 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image) {
   });
 
   scene_.plane = plane_;
+  scene_.voxel_origin = voxels_.grid_origin();
   scene_.positions.assign(voxels_.positions().begin(), voxels_.positions().end());
   scene_.colors.assign(voxels_.colors().begin(), voxels_.colors().end());
   scene_.pixel_u.resize(voxel_count);

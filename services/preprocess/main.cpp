@@ -84,7 +84,7 @@ class PreprocessService {
       return;
     }
     try {
-      preprocessor_.process(image_view(frame));
+      preprocessor_.process(image_view(frame), message.seq);
     } catch (const std::invalid_argument& e) {
       status_.malformed().record(channel::kFrame, "invalid frame", e.what());
       return;

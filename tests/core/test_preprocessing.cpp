@@ -197,6 +197,59 @@ TEST(Preprocessor, VoxelsAreSparserThanLeafAndPixelsMapBack) {
   EXPECT_EQ(preprocessor.voxel_index_at(0, frame.height), -1);
 }
 
+TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
+  const auto scene = test_scene::two_boxes();
+  Camera camera;
+  camera.depth_noise_mm = 2.f;
+  const Frame frame = test_scene::render(scene, camera);
+  PreprocessorOptions options;
+  options.voxel_jitter = true;
+  Preprocessor forward(options);
+  Preprocessor backward(options);
+
+  // The same frame under seqs 1, 2, 3, and under 3, 2, 1 in another preprocessor: each seq's grid (and
+  // so its scene) is the same whatever came before, and no two seqs share a grid.
+  std::vector<SceneCloud> by_seq(4);
+  for (std::int64_t seq = 1; seq <= 3; ++seq) by_seq[static_cast<std::size_t>(seq)] = forward.process(frame.view(), seq);
+  for (std::int64_t seq = 3; seq >= 1; --seq) {
+    const SceneCloud& again = backward.process(frame.view(), seq);
+    const SceneCloud& first = by_seq[static_cast<std::size_t>(seq)];
+    EXPECT_EQ(again.voxel_origin, first.voxel_origin);
+    ASSERT_EQ(again.positions, first.positions);
+    EXPECT_EQ(again.num_clusters, 2);
+  }
+  for (std::size_t seq = 1; seq <= 3; ++seq) {
+    const SceneCloud& cloud = by_seq[seq];
+    EXPECT_TRUE((cloud.voxel_origin.array() >= 0.f).all() && (cloud.voxel_origin.array() < options.voxel_size).all())
+        << cloud.voxel_origin.transpose();
+    for (std::size_t other = seq + 1; other <= 3; ++other) {
+      EXPECT_NE(cloud.voxel_origin, by_seq[other].voxel_origin);
+      EXPECT_NE(cloud.positions, by_seq[other].positions);  // another grid, other voxel means
+    }
+  }
+
+  // Each voxel's mean and its recorded pixel's point lie in one cell of the moved grid.
+  const SceneCloud& last = backward.scene();  // seq 1
+  const auto& k = frame.intrinsics;
+  const auto cell = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return ((p - last.voxel_origin) / options.voxel_size).array().floor();
+  };
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    const int u = last.pixel_u[i];
+    const int v = last.pixel_v[i];
+    const float z = frame.depth_mm[static_cast<std::size_t>(v * frame.width + u)] * 0.001f;
+    const Eigen::Vector3f p((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
+    EXPECT_EQ(backward.voxel_index_of(p), static_cast<int>(i));
+    EXPECT_EQ(cell(p), cell(last.positions[i]));
+  }
+
+  // Off (the default): the grid stays at the origin for every seq.
+  Preprocessor fixed;
+  EXPECT_EQ(fixed.process(frame.view(), 5).voxel_origin, Eigen::Vector3f::Zero());
+  const std::vector<Eigen::Vector3f> at_five = fixed.scene().positions;
+  EXPECT_EQ(fixed.process(frame.view(), 6).positions, at_five);
+}
+
 TEST(Preprocessor, PlaneKeptWhileItFitsAndRefittedWhenCameraMoves) {
   const auto scene = test_scene::two_boxes();
   Camera camera;
@@ -470,6 +523,29 @@ TEST(VoxelDownsampler, MeansCountsAndOrderOnHandMadeInput) {
 
   EXPECT_THROW(VoxelDownsampler(0.f), std::invalid_argument);
   EXPECT_THROW(voxels.downsample(positions, std::span(colors).subspan(1), ids), std::invalid_argument);
+}
+
+TEST(VoxelDownsampler, AMovedGridRegroupsThePoints) {
+  VoxelDownsampler voxels(0.1f);
+  const std::vector<Eigen::Vector3f> positions = {
+      {0.01f, 0.01f, 0.01f}, {0.15f, 0.01f, 0.01f}, {0.03f, 0.05f, 0.07f}, {0.11f, 0.09f, 0.05f}};
+  const std::vector<Rgb8> colors(positions.size(), Rgb8{1, 2, 3});
+  const std::vector<std::uint32_t> ids = {0, 1, 2, 3};
+  ASSERT_EQ(voxels.downsample(positions, colors, ids), 2u);  // x cells 0, 1, 0, 1
+
+  // Cells start at x = 0.05: x cells -1, 1, -1, 0.
+  voxels.set_grid_origin({0.05f, 0.f, 0.f});
+  EXPECT_EQ(voxels.grid_origin(), Eigen::Vector3f(0.05f, 0.f, 0.f));
+  ASSERT_EQ(voxels.downsample(positions, colors, ids), 3u);
+  const std::vector<int> expected_voxel_of = {0, 1, 0, 2};
+  EXPECT_EQ(std::vector<int>(voxels.voxel_of_input().begin(), voxels.voxel_of_input().end()), expected_voxel_of);
+  EXPECT_TRUE(voxels.positions()[0].isApprox(Eigen::Vector3f(0.02f, 0.03f, 0.04f), 1e-6f));
+  EXPECT_EQ(voxels.voxel_index_of({-0.04f, 0.f, 0.f}), 0);
+  EXPECT_EQ(voxels.voxel_index_of({0.051f, 0.f, 0.f}), 2);
+  EXPECT_EQ(voxels.voxel_index_of({0.149f, 0.05f, 0.05f}), 2);
+
+  EXPECT_THROW(voxels.set_grid_origin({std::nanf(""), 0.f, 0.f}), std::invalid_argument);
+  EXPECT_EQ(voxels.grid_origin(), Eigen::Vector3f(0.05f, 0.f, 0.f));
 }
 
 TEST(PlaneFitter, FitsNoisyPlaneWithOutliersAndRejectsClutter) {

@@ -358,6 +358,17 @@ TEST(Config, ParticlesFollowRefinementReachesTheFilter) {
   expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 1.5\n", "particles_follow_refinement");
 }
 
+TEST(Config, VoxelJitterReachesThePreprocessorWithItsSeed) {
+  const PreprocessConfig fixed = load_preprocess_config(with_defaults(""));
+  EXPECT_FALSE(fixed.preprocessor.voxel_jitter);  // the shipped value: a fixed grid (thesis)
+  const PreprocessConfig moving =
+      load_preprocess_config(with_defaults("preprocess:\n  voxel_jitter: true\n  seed: 77\n"));
+  EXPECT_TRUE(moving.preprocessor.voxel_jitter);
+  EXPECT_EQ(moving.preprocessor.voxel_jitter_seed, 77u);
+  EXPECT_EQ(moving.preprocessor.plane_fit.seed, 77u);
+  expect_rejected(load_preprocess_config, "preprocess:\n  voxel_jitter: 3\n", "voxel_jitter");
+}
+
 TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  discovery:\n    confirm_frames: 20\n    confirm_votes: 4\n    confirm_max_motion: 0.02\n"));

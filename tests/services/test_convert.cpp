@@ -53,6 +53,9 @@ scene_cloud_t make_scene_message(int n) {
   msg.width = 640;
   msg.height = 480;
   msg.voxel_size = 0.005f;
+  msg.voxel_origin[0] = 0.001f;
+  msg.voxel_origin[1] = 0.0025f;
+  msg.voxel_origin[2] = 0.004f;
   msg.num_points = n;
   msg.num_clusters = 2;
   for (int i = 0; i < n; ++i) {
@@ -252,6 +255,7 @@ TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {
   ASSERT_FALSE(scene_from_message(msg, scene).has_value());
   EXPECT_EQ(scene.frame_seq, 42);
   EXPECT_EQ(scene.capture_utime, 1700000000123456);
+  EXPECT_EQ(scene.voxel_origin, Eigen::Vector3f(0.001f, 0.0025f, 0.004f));
   ASSERT_EQ(scene.cloud.size(), 9u);
   ASSERT_EQ(scene.cluster.size(), 9u);
   for (std::size_t i = 0; i < 9; ++i) {
@@ -287,6 +291,9 @@ TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
     bad_voxel.voxel_size = voxel;
     EXPECT_EQ(scene_from_message(bad_voxel, scene), "voxel_size must be finite and > 0") << voxel;
   }
+  auto bad_origin = valid;
+  bad_origin.voxel_origin[1] = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(scene_from_message(bad_origin, scene), "voxel_origin must be finite");
   for (const float fy : {-500.f, 0.f, std::numeric_limits<float>::quiet_NaN()}) {
     auto bad_intrinsics = valid;
     bad_intrinsics.fx = 500.f;
@@ -322,6 +329,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   cloud.num_clusters = 1;
   cloud.plane.valid = true;
   cloud.plane.coefficients = Eigen::Vector4f(0.f, -1.f, 0.f, 0.8f);
+  cloud.voxel_origin = Eigen::Vector3f(0.003f, 0.f, 0.0015f);
   frame_t source{};
   source.seq = 17;
   source.capture_utime = 123456;
@@ -344,6 +352,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   EXPECT_EQ(scene.frame_seq, 17);
   EXPECT_EQ(scene.capture_utime, 123456);
   EXPECT_EQ(scene.voxel_size, 0.005f);
+  EXPECT_EQ(scene.voxel_origin, cloud.voxel_origin);
   EXPECT_EQ(scene.cloud.positions, cloud.positions);
   EXPECT_EQ(scene.cluster, std::vector<std::int32_t>(cloud.cluster.begin(), cloud.cluster.end()));
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(scene.cloud.colors[i].r, cloud.colors[i].r);

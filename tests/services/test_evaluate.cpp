@@ -340,8 +340,27 @@ TEST(Evaluate, DenseLabelsMarkMeasuredPixelsOutsideTheScene) {
   const auto at_pixel = [&](int u) { return Eigen::Vector3f((static_cast<float>(u) - 0.f) / f, 0.f, 1.f); };
   const std::vector<Eigen::Vector3f> scene = {at_pixel(1), at_pixel(2)};
   const std::vector<std::int32_t> labels = {7, 0};
-  const auto image = service::dense_labels(4, 1, f, f, 0.f, 0.f, depth, 0.005f, scene, labels);
+  const auto image = service::dense_labels(4, 1, f, f, 0.f, 0.f, depth, 0.005f, Eigen::Vector3f::Zero(), scene, labels);
   EXPECT_EQ(image.pixels, (std::vector<std::uint16_t>{0, 7, 0, service::kNotScenePoint}));
+}
+
+TEST(Evaluate, DenseLabelsFollowTheFramesVoxelGrid) {
+  // 4x1 image at 1 m, pixels 1-3 at x = 1.25, 3.75 and 6.25 mm; one scene point at x = 3 mm. On the grid at the
+  // origin the point's 5 mm voxel holds pixels 1 and 2; moved by 2.5 mm (a jittered frame), pixels 2 and 3.
+  const float f = 400.f;
+  const float cx = 0.5f;
+  const std::vector<std::uint16_t> depth = {0, 1000, 1000, 1000};
+  const std::vector<Eigen::Vector3f> scene = {Eigen::Vector3f(0.003f, 0.001f, 1.001f)};
+  const std::vector<std::int32_t> labels = {7};
+  const std::uint16_t none = service::kNotScenePoint;
+  EXPECT_EQ(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f::Zero(), scene, labels).pixels,
+            (std::vector<std::uint16_t>{0, 7, 7, none}));
+  EXPECT_EQ(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f(0.0025f, 0.f, 0.f), scene,
+                                  labels)
+                .pixels,
+            (std::vector<std::uint16_t>{0, none, 7, 7}));
+  EXPECT_THROW(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f(NAN, 0.f, 0.f), scene, labels),
+               std::invalid_argument);
 }
 
 TEST(Evaluate, FittingAndTimingAreSummarised) {

@@ -228,7 +228,7 @@ poses_t make_poses(int n) {
 }
 
 // Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order).
-constexpr std::size_t kSceneNumPoints = 8 + 24 + 8 + 20 + 16;
+constexpr std::size_t kSceneNumPoints = 8 + 24 + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
 constexpr std::size_t kModelNumPoints = 8 + 16 + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
 constexpr std::size_t kPosesNumObjects = 8 + 24;
 std::size_t frame_depth_size_offset(const frame_t& msg) { return 8 + 24 + 4 + msg.source.size() + 1 + 24 + 1; }

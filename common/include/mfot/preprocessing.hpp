@@ -10,7 +10,13 @@
 //      refinement on its inliers) is kept between frames and refitted only when its inlier share
 //      drops; points more than a margin above it on the camera side survive;
 //   4. voxel downsampling (5 mm leaf): mean position and mean colour per voxel, one source pixel
-//      per voxel (the first in raster order), voxels ordered by that pixel;
+//      per voxel (the first in raster order), voxels ordered by that pixel. With voxel_jitter the
+//      grid's corner moves each frame to a random point of one leaf, drawn from the seed and the
+//      frame's seq (a counter-based draw: the same frame gives the same grid in any replay). On a
+//      fixed grid a surface at rest yields the same pattern of voxel means in every frame, so
+//      point-to-point ICP onto a model sampled from that surface locks onto the pose the model
+//      was sampled at, and holds back a box that starts to turn from there (README "Measured":
+//      "A voxel grid that moves every frame");
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
 //      within size limits, numbered by their first voxel (EuclideanClusterer's result, computed
 //      by a grid union-find, about 5x faster on 5 mm voxels);
@@ -83,6 +89,8 @@ struct SceneCloud {
   std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
   int num_clusters = 0;
   TablePlane plane;                        // the plane used for this frame (invalid: none removed)
+  Eigen::Vector3f voxel_origin = Eigen::Vector3f::Zero();  // the voxel grid's corner, metres: voxels are
+                                           // the cells floor((p - voxel_origin) / voxel_size)
 
   std::size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }
@@ -105,6 +113,11 @@ class VoxelDownsampler {
   std::size_t downsample(std::span<const Eigen::Vector3f> positions, std::span<const Rgb8> colors,
                          std::span<const std::uint32_t> source_ids, ThreadPool* pool = nullptr);
 
+  // Moves the grid: voxels become the cells floor((p - origin) / leaf_size) from the next
+  // downsample() on (the origin starts at zero). Throws std::invalid_argument for a non-finite origin.
+  void set_grid_origin(const Eigen::Vector3f& origin);
+  const Eigen::Vector3f& grid_origin() const { return grid_origin_; }
+
   float leaf_size() const { return leaf_size_; }
   std::size_t size() const { return mean_positions_.size(); }
   std::span<const Eigen::Vector3f> positions() const { return mean_positions_; }  // mean per voxel
@@ -122,6 +135,7 @@ class VoxelDownsampler {
 
   float leaf_size_;
   float inv_leaf_;
+  Eigen::Vector3f grid_origin_ = Eigen::Vector3f::Zero();
   // Slots are valid when their stamp equals the current generation, so no per-frame clearing.
   std::vector<std::uint64_t> slot_keys_;
   std::vector<int> slot_voxels_;
@@ -190,6 +204,8 @@ struct PreprocessorOptions {
   float plane_keep_ratio = 0.7f;
 
   float voxel_size = 0.005f;         // leaf, metres, in (0, 1]
+  bool voxel_jitter = false;         // step 4's grid corner drawn per frame within one leaf (false: at the origin)
+  std::uint64_t voxel_jitter_seed = 0;  // keys that draw together with the frame's seq
 
   bool cluster = true;
   float cluster_tolerance = 0.015f;  // metres, in (0, 1]
@@ -232,9 +248,10 @@ class Preprocessor {
 
   const PreprocessorOptions& options() const { return options_; }
 
-  // Runs steps 1-5 on one frame; the result stays valid until the next call. Throws
-  // std::invalid_argument for inconsistent image sizes or invalid intrinsics.
-  const SceneCloud& process(const RgbdImageView& image);
+  // Runs steps 1-6 on one frame; frame_seq (the capture's frame counter, which the services pass)
+  // keys the voxel grid's draw and matters only with voxel_jitter. The result stays valid until
+  // the next call. Throws std::invalid_argument for inconsistent image sizes or invalid intrinsics.
+  const SceneCloud& process(const RgbdImageView& image, std::int64_t frame_seq = 0);
 
   const SceneCloud& scene() const { return scene_; }
   const PreprocessStats& stats() const { return stats_; }

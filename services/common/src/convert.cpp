@@ -40,6 +40,7 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     return "array sizes disagree with num_points";
   }
   if (!(msg.voxel_size > 0.f) || !std::isfinite(msg.voxel_size)) return "voxel_size must be finite and > 0";
+  if (!finite3(msg.voxel_origin[0], msg.voxel_origin[1], msg.voxel_origin[2])) return "voxel_origin must be finite";
   // The image's size and intrinsics: all given (the preprocessor sends them) or size or fx 0 (not known).
   out.view.reset();
   if (msg.width != 0 && msg.height != 0 && msg.fx != 0.f) {
@@ -52,6 +53,7 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
   }
   out.frame_seq = msg.frame_seq;
   out.voxel_size = msg.voxel_size;
+  out.voxel_origin = Eigen::Vector3f(msg.voxel_origin[0], msg.voxel_origin[1], msg.voxel_origin[2]);
   out.capture_utime = msg.capture_utime;
   out.cloud.clear();
   out.cloud.reserve(n);
@@ -99,6 +101,7 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxe
   out.cx = source.cx;
   out.cy = source.cy;
   out.voxel_size = voxel_size;
+  for (int i = 0; i < 3; ++i) out.voxel_origin[i] = scene.voxel_origin[i];
   for (int i = 0; i < 4; ++i) out.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
   out.num_points = static_cast<std::int32_t>(n);
   write_points(scene.positions, scene.colors, out);

@@ -26,11 +26,12 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   frame_.times.codec_ms = ms_since(t0);
 
   const auto t_preprocess = Clock::now();
-  const SceneCloud& cloud = preprocessor_.process(image_view(decoded));
+  const SceneCloud& cloud = preprocessor_.process(image_view(decoded), seq);
   Scene& scene = frame_.scene;
   scene.frame_seq = seq;
   scene.capture_utime = decoded.capture_utime;
   scene.voxel_size = options_.preprocess.voxel_size;
+  scene.voxel_origin = cloud.voxel_origin;
   scene.cloud.clear();
   scene.cloud.positions = cloud.positions;
   scene.cloud.colors = cloud.colors;

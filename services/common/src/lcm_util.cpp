@@ -110,9 +110,9 @@ bool fixed_count_fits(const lcm::ReceiveBuffer* rbuf, std::int64_t fingerprint, 
 }  // namespace
 
 // hash 8 | utime, frame_seq, capture_utime 24 | width, height 8 | fx, fy, cx, cy, voxel_size 20 |
-// plane 16 | num_points; per point x, y, z 12 + r, g, b 3 + u, v 4 + cluster 4.
+// voxel_origin 12 | plane 16 | num_points; per point x, y, z 12 + r, g, b 3 + u, v 4 + cluster 4.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
-  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 76, 23);
+  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 88, 23);
 }
 
 // hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,

@@ -69,6 +69,8 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.prism_min_share = s.get<float>("prism_min_share", 0.001f, 1.f);
   o.plane_keep_ratio = s.get<float>("plane_keep_ratio", 1e-3f, 1.f);
   o.voxel_size = s.get<float>("voxel_size", 1e-4f, 1.f);
+  o.voxel_jitter = s.get<bool>("voxel_jitter");
+  o.voxel_jitter_seed = o.plane_fit.seed;
   o.cluster = s.get<bool>("cluster");
   o.cluster_tolerance = s.get<float>("cluster_tolerance", 1e-4f, 1.f);
   o.cluster_min_size = s.get<int>("cluster_min_size", 1, 10000000);
