@@ -43,6 +43,13 @@ Frame constant_depth_frame(int width, int height, std::uint16_t left_mm, std::ui
   return frame;
 }
 
+// test_scene::two_boxes() from the default camera, with this depth noise.
+Frame two_boxes_frame(float depth_noise_mm) {
+  Camera camera;
+  camera.depth_noise_mm = depth_noise_mm;
+  return test_scene::render(test_scene::two_boxes(), camera);
+}
+
 void expect_plane_near(const TablePlane& plane, const Eigen::Vector4f& expected) {
   ASSERT_TRUE(plane.valid);
   EXPECT_NEAR(plane.coefficients.head<3>().norm(), 1.f, 1e-4f);
@@ -52,13 +59,12 @@ void expect_plane_near(const TablePlane& plane, const Eigen::Vector4f& expected)
 
 TEST(Preprocessor, FindsTablePlaneAndSeparatesBoxes) {
   const auto scene = test_scene::two_boxes();
-  Camera camera;
-  camera.depth_noise_mm = 2.f;
-  const Frame frame = test_scene::render(scene, camera);
+  const Frame frame = two_boxes_frame(2.f);
 
   Preprocessor preprocessor;
   const SceneCloud& cloud = preprocessor.process(frame.view());
 
+  const Camera camera;
   expect_plane_near(cloud.plane, camera.table_plane());
   expect_plane_near(preprocessor.plane(), camera.table_plane());
   EXPECT_TRUE(preprocessor.stats().plane_refitted);
@@ -198,10 +204,7 @@ TEST(Preprocessor, VoxelsAreSparserThanLeafAndPixelsMapBack) {
 }
 
 TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
-  const auto scene = test_scene::two_boxes();
-  Camera camera;
-  camera.depth_noise_mm = 2.f;
-  const Frame frame = test_scene::render(scene, camera);
+  const Frame frame = two_boxes_frame(2.f);
   PreprocessorOptions options;
   options.voxel_jitter = true;
   Preprocessor forward(options);
