@@ -23,6 +23,7 @@ void require(bool ok, const char* field, const std::string& range) {
 bool finite_in(float v, float lo, float hi) { return std::isfinite(v) && v > lo && v <= hi; }
 
 constexpr float kMetresPerMillimetre = 0.001f;
+constexpr int kMaxImageSide = 32767;  // pixel coordinates travel as int16
 
 // SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator, so a frame's draw depends on
 // the seed and its seq alone, never on which frames came before (a replay that skips frames
@@ -44,7 +45,6 @@ Eigen::Vector3f jittered_grid_origin(std::uint64_t seed, std::int64_t frame_seq,
   }
   return origin;
 }
-constexpr int kMaxImageSide = 32767;  // pixel coordinates travel as int16
 
 }  // namespace
 
