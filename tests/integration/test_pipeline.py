@@ -113,7 +113,7 @@ README_STILL_CAN = {"seed": 36, "frames": 680, "can": 3, "translation_max_mm": 7
 # README "Measured", "A voxel grid that moves every frame": `rotate` seed 50 up to frame 330 with preprocess.voxel_jitter,
 # the box (ground truth 1) that the hand turns from rest at up to 2.5 deg a frame over frames 304-316: its largest
 # rotation error, degrees (14.0 on the fixed grid of the defaults, where ICP held it at the pose its model was sampled
-# at for 8 frames).
+# at through frames 307-313).
 README_QUICK_TURN = {"seed": 50, "frames": 330, "box": 1, "rotation_max_deg": 5.5,
                      "preprocess": {"voxel_jitter": True}}
 # README "Measured", "Confidence that sees through a wrong estimate": `rotate` seed 4 with ICP and the companion pose
