@@ -1,5 +1,7 @@
 #include "mfot/preprocessing.hpp"
 
+#include "mfot/splitmix.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,24 +27,12 @@ bool finite_in(float v, float lo, float hi) { return std::isfinite(v) && v > lo 
 constexpr float kMetresPerMillimetre = 0.001f;
 constexpr int kMaxImageSide = 32767;  // pixel coordinates travel as int16
 
-// SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator, so a frame's draw depends on
-// the seed and its seq alone, never on which frames came before (a replay that skips frames
-// draws the same grids for the frames it keeps).
-std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-// The voxel grid's corner for one frame: uniform in [0, leaf)^3.
+// The voxel grid's corner for one frame: uniform in [0, leaf)^3, drawn by SplitMix64 from the seed and the frame's
+// seq alone (a replay that skips frames draws the same grids for the frames it keeps).
 Eigen::Vector3f jittered_grid_origin(std::uint64_t seed, std::int64_t frame_seq, float leaf) {
   std::uint64_t state = seed ^ (static_cast<std::uint64_t>(frame_seq) * 0xD1B54A32D192ED03ull);
   Eigen::Vector3f origin;
-  for (int axis = 0; axis < 3; ++axis) {
-    constexpr float kUnit = 1.f / 16777216.f;  // 24 random bits to [0, 1)
-    origin[axis] = leaf * static_cast<float>(splitmix64(state) >> 40) * kUnit;
-  }
+  for (int axis = 0; axis < 3; ++axis) origin[axis] = leaf * unit_interval(splitmix64(state));
   return origin;
 }
 
@@ -56,6 +46,7 @@ void SceneCloud::clear() {
   cluster.clear();
   num_clusters = 0;
   plane = TablePlane{};
+  voxel_size = 0.f;
   voxel_origin = Eigen::Vector3f::Zero();
 }
 
@@ -132,6 +123,7 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image, std::int64_t
   });
 
   scene_.plane = plane_;
+  scene_.voxel_size = voxels_.leaf_size();
   scene_.voxel_origin = voxels_.grid_origin();
   scene_.positions.assign(voxels_.positions().begin(), voxels_.positions().end());
   scene_.colors.assign(voxels_.colors().begin(), voxels_.colors().end());

@@ -100,14 +100,7 @@ void BaselinePipeline::process(const Frame& frame, std::int64_t seq, const std::
   // The frame as the services see it after the wire's (possibly lossy) encoding.
   message_ = encode_frame(frame, options_.encoding, seq, source_name, now_utime());
   const Frame decoded = decode_frame(message_);
-  const SceneCloud& cloud = preprocessor_.process(image_view(decoded), seq);
-  scene_.frame_seq = seq;
-  scene_.capture_utime = decoded.capture_utime;
-  scene_.voxel_size = options_.preprocess.voxel_size;
-  scene_.voxel_origin = cloud.voxel_origin;
-  scene_.cloud.positions = cloud.positions;
-  scene_.cloud.colors = cloud.colors;
-  scene_.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+  scene_from_cloud(preprocessor_.process(image_view(decoded), seq), decoded, seq, scene_);
   track_ms_ = 0.0;
   particles_ = 0;
   if (seq == 0) {

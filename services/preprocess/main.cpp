@@ -89,7 +89,7 @@ class PreprocessService {
       status_.malformed().record(channel::kFrame, "invalid frame", e.what());
       return;
     }
-    scene_to_message(preprocessor_.scene(), message, preprocessor_.options().voxel_size, out_);
+    scene_to_message(preprocessor_.scene(), message, out_);
     out_.utime = now_utime();
     lcm_.publish(channel::kScene, &out_);
     status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - start).count());

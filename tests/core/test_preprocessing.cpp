@@ -223,6 +223,7 @@ TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
   }
   for (std::size_t seq = 1; seq <= 3; ++seq) {
     const SceneCloud& cloud = by_seq[seq];
+    EXPECT_EQ(cloud.voxel_size, options.voxel_size);  // the grid travels whole: its leaf and its corner
     EXPECT_TRUE((cloud.voxel_origin.array() >= 0.f).all() && (cloud.voxel_origin.array() < options.voxel_size).all())
         << cloud.voxel_origin.transpose();
     for (std::size_t other = seq + 1; other <= 3; ++other) {

@@ -329,6 +329,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   cloud.num_clusters = 1;
   cloud.plane.valid = true;
   cloud.plane.coefficients = Eigen::Vector4f(0.f, -1.f, 0.f, 0.8f);
+  cloud.voxel_size = 0.005f;
   cloud.voxel_origin = Eigen::Vector3f(0.003f, 0.f, 0.0015f);
   frame_t source{};
   source.seq = 17;
@@ -340,7 +341,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   source.cy = 239.5f;
   scene_cloud_t msg{};
   msg.x.assign(100, 1.f);  // a reused message's old contents must go
-  scene_to_message(cloud, source, 0.005f, msg);
+  scene_to_message(cloud, source, msg);
   EXPECT_EQ(msg.frame_seq, 17);
   EXPECT_EQ(msg.width, 640);
   EXPECT_EQ(msg.fx, 570.f);
@@ -356,6 +357,30 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   EXPECT_EQ(scene.cloud.positions, cloud.positions);
   EXPECT_EQ(scene.cluster, std::vector<std::int32_t>(cloud.cluster.begin(), cloud.cluster.end()));
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(scene.cloud.colors[i].r, cloud.colors[i].r);
+  ASSERT_TRUE(scene.view.has_value());
+
+  // In process (InprocessPipeline, BaselinePipeline): the same scene without the wire, into a reused one.
+  Frame decoded;
+  decoded.capture_utime = source.capture_utime;
+  decoded.width = source.width;
+  decoded.height = source.height;
+  decoded.fx = source.fx;
+  decoded.fy = source.fy;
+  decoded.cx = source.cx;
+  decoded.cy = source.cy;
+  Scene direct;
+  direct.cloud.positions.assign(9, Eigen::Vector3f::Ones());  // a reused scene's old contents must go
+  scene_from_cloud(cloud, decoded, source.seq, direct);
+  EXPECT_EQ(direct.frame_seq, scene.frame_seq);
+  EXPECT_EQ(direct.capture_utime, scene.capture_utime);
+  EXPECT_EQ(direct.voxel_size, scene.voxel_size);
+  EXPECT_EQ(direct.voxel_origin, scene.voxel_origin);
+  EXPECT_EQ(direct.cloud.positions, scene.cloud.positions);
+  EXPECT_EQ(direct.cluster, scene.cluster);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(direct.cloud.colors[i].g, scene.cloud.colors[i].g);
+  ASSERT_TRUE(direct.view.has_value());
+  EXPECT_EQ(direct.view->x_min, scene.view->x_min);
+  EXPECT_EQ(direct.view->y_max, scene.view->y_max);
 }
 
 }  // namespace

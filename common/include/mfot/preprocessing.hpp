@@ -89,6 +89,7 @@ struct SceneCloud {
   std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
   int num_clusters = 0;
   TablePlane plane;                        // the plane used for this frame (invalid: none removed)
+  float voxel_size = 0.f;                  // the voxel grid's leaf, metres (0 before the first frame)
   Eigen::Vector3f voxel_origin = Eigen::Vector3f::Zero();  // the voxel grid's corner, metres: voxels are
                                            // the cells floor((p - voxel_origin) / voxel_size)
 

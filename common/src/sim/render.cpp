@@ -14,6 +14,7 @@
 // function of its inputs regardless of render order and costs a few cycles per draw.
 
 #include "mfot/sim/scene.hpp"
+#include "mfot/splitmix.hpp"
 
 #include <algorithm>
 #include <array>
@@ -30,15 +31,6 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 void require(bool ok, const char* field, const char* range) {
   if (!ok) throw std::invalid_argument(std::string(field) + " must be " + range);
-}
-
-// SplitMix64 finaliser: a bijective mixer whose outputs pass as independent uniform 64-bit words
-// for consecutive inputs.
-std::uint64_t mix64(std::uint64_t z) {
-  z += 0x9e3779b97f4a7c15ULL;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
 }
 
 // Unit-variance, zero-mean, Gaussian-like draw: sum of four 16-bit uniforms (Irwin-Hall, n = 4).

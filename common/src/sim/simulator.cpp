@@ -1,5 +1,6 @@
 #include "mfot/sim/simulator.hpp"
 
+#include "mfot/splitmix.hpp"
 #include "script.hpp"
 
 #include <algorithm>
@@ -13,13 +14,6 @@ namespace {
 
 void require(bool ok, const char* field, const char* range) {
   if (!ok) throw std::invalid_argument(std::string(field) + " must be " + range);
-}
-
-std::uint64_t mix64(std::uint64_t z) {
-  z += 0x9e3779b97f4a7c15ULL;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
 }
 
 // Minimum visible pixels of every object at frame 0 for a random layout to be kept.

@@ -90,7 +90,7 @@ RgbdImageView image_view(const Frame& frame) {
           frame.color};
 }
 
-void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out) {
+void scene_to_message(const SceneCloud& scene, const frame_t& source, scene_cloud_t& out) {
   const auto n = scene.size();
   out.frame_seq = source.seq;
   out.capture_utime = source.capture_utime;
@@ -100,7 +100,7 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxe
   out.fy = source.fy;
   out.cx = source.cx;
   out.cy = source.cy;
-  out.voxel_size = voxel_size;
+  out.voxel_size = scene.voxel_size;
   for (int i = 0; i < 3; ++i) out.voxel_origin[i] = scene.voxel_origin[i];
   for (int i = 0; i < 4; ++i) out.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
   out.num_points = static_cast<std::int32_t>(n);
@@ -109,6 +109,17 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxe
   out.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
   out.cluster.assign(scene.cluster.begin(), scene.cluster.end());
   out.num_clusters = scene.num_clusters;
+}
+
+void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t seq, Scene& out) {
+  out.frame_seq = seq;
+  out.capture_utime = source.capture_utime;
+  out.voxel_size = cloud.voxel_size;
+  out.voxel_origin = cloud.voxel_origin;
+  out.cloud.positions.assign(cloud.positions.begin(), cloud.positions.end());
+  out.cloud.colors.assign(cloud.colors.begin(), cloud.colors.end());
+  out.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+  out.view = ViewBounds::of_image(source.width, source.height, source.fx, source.fy, source.cx, source.cy);
 }
 
 std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out) {

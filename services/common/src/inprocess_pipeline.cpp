@@ -26,17 +26,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
   frame_.times.codec_ms = ms_since(t0);
 
   const auto t_preprocess = Clock::now();
-  const SceneCloud& cloud = preprocessor_.process(image_view(decoded), seq);
   Scene& scene = frame_.scene;
-  scene.frame_seq = seq;
-  scene.capture_utime = decoded.capture_utime;
-  scene.voxel_size = options_.preprocess.voxel_size;
-  scene.voxel_origin = cloud.voxel_origin;
-  scene.cloud.clear();
-  scene.cloud.positions = cloud.positions;
-  scene.cloud.colors = cloud.colors;
-  scene.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
-  scene.view = ViewBounds::of_image(decoded.width, decoded.height, decoded.fx, decoded.fy, decoded.cx, decoded.cy);
+  scene_from_cloud(preprocessor_.process(image_view(decoded), seq), decoded, seq, scene);
   frame_.times.preprocess_ms = ms_since(t_preprocess);
 
   const auto t_track = Clock::now();

@@ -41,7 +41,10 @@ RgbdImageView image_view(const Frame& frame);
 
 // The preprocessed scene of `source` (its seq, capture time, size and intrinsics) into `out`,
 // reusing its buffers; utime is left to the publisher.
-void scene_to_message(const SceneCloud& scene, const frame_t& source, float voxel_size, scene_cloud_t& out);
+void scene_to_message(const SceneCloud& scene, const frame_t& source, scene_cloud_t& out);
+// The preprocessed scene of frame `seq` as the trackers and the merger receive it (what scene_from_message gives
+// for the message scene_to_message makes of it), without the wire, into `out`, reusing its buffers.
+void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t seq, Scene& out);
 
 std::optional<std::string> pose_from_arrays(const double position[3], const double orientation[4], Pose& out);
 void pose_to_arrays(const Pose& pose, double position[3], double orientation[4]);
