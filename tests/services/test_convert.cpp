@@ -360,14 +360,8 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   ASSERT_TRUE(scene.view.has_value());
 
   // In process (InprocessPipeline, BaselinePipeline): the same scene without the wire, into a reused one.
-  Frame decoded;
-  decoded.capture_utime = source.capture_utime;
-  decoded.width = source.width;
-  decoded.height = source.height;
-  decoded.fx = source.fx;
-  decoded.fy = source.fy;
-  decoded.cx = source.cx;
-  decoded.cy = source.cy;
+  const Frame decoded{.capture_utime = source.capture_utime, .width = source.width, .height = source.height,
+                      .fx = source.fx, .fy = source.fy, .cx = source.cx, .cy = source.cy};
   Scene direct;
   direct.cloud.positions.assign(9, Eigen::Vector3f::Ones());  // a reused scene's old contents must go
   scene_from_cloud(cloud, decoded, source.seq, direct);
