@@ -361,7 +361,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
 
   // In process (InprocessPipeline, BaselinePipeline): the same scene without the wire, into a reused one.
   const Frame decoded{.capture_utime = source.capture_utime, .width = source.width, .height = source.height,
-                      .fx = source.fx, .fy = source.fy, .cx = source.cx, .cy = source.cy};
+                      .fx = source.fx, .fy = source.fy, .cx = source.cx, .cy = source.cy, .depth_mm = {}, .color = {}};
   Scene direct;
   direct.cloud.positions.assign(9, Eigen::Vector3f::Ones());  // a reused scene's old contents must go
   scene_from_cloud(cloud, decoded, source.seq, direct);
