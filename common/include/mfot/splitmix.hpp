@@ -1,7 +1,7 @@
 #pragma once
 // SplitMix64 (Steele, Lea and Flood 2014): a counter-based generator. Its finaliser is a bijective mixer
 // whose outputs pass as independent uniform 64-bit words for consecutive inputs, so a draw keyed by what
-// it is for (a frame's seq, a point's coordinates) depends on that key and the seed alone, never on the
+// it is for (a frame's seq, a pixel's index) depends on that key and the seed alone, never on the
 // order of the draws before it.
 
 #include <cstdint>
