@@ -116,8 +116,8 @@ void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t
   out.capture_utime = source.capture_utime;
   out.voxel_size = cloud.voxel_size;
   out.voxel_origin = cloud.voxel_origin;
-  out.cloud.positions.assign(cloud.positions.begin(), cloud.positions.end());
-  out.cloud.colors.assign(cloud.colors.begin(), cloud.colors.end());
+  out.cloud.positions = cloud.positions;
+  out.cloud.colors = cloud.colors;
   out.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
   out.view = ViewBounds::of_image(source.width, source.height, source.fx, source.fy, source.cx, source.cy);
 }
