@@ -43,6 +43,24 @@ Frame constant_depth_frame(int width, int height, std::uint16_t left_mm, std::ui
   return frame;
 }
 
+// Each voxel of the preprocessor's last scene (cloud) holds its recorded pixel: that pixel maps back to the voxel,
+// its 3D point does too, and the voxel's mean lies in the same cell of the scene's grid (its leaf and corner).
+void expect_voxels_hold_their_pixels(const Preprocessor& preprocessor, const SceneCloud& cloud, const Frame& frame) {
+  const auto& k = frame.intrinsics;
+  const auto cell = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return ((p - cloud.voxel_origin) / cloud.voxel_size).array().floor();
+  };
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const int u = cloud.pixel_u[i];
+    const int v = cloud.pixel_v[i];
+    EXPECT_EQ(preprocessor.voxel_index_at(u, v), static_cast<int>(i));
+    const float z = frame.depth_mm[static_cast<std::size_t>(v * frame.width + u)] * 0.001f;
+    const Eigen::Vector3f p((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
+    EXPECT_EQ(preprocessor.voxel_index_of(p), static_cast<int>(i));
+    EXPECT_EQ(cell(p), cell(cloud.positions[i]));
+  }
+}
+
 // test_scene::two_boxes() from the default camera, with this depth noise.
 Frame two_boxes_frame(float depth_noise_mm) {
   Camera camera;
@@ -172,20 +190,11 @@ TEST(Preprocessor, VoxelsAreSparserThanLeafAndPixelsMapBack) {
   const SceneCloud& cloud = preprocessor.process(frame.view());
   ASSERT_FALSE(cloud.empty());
 
-  // The recorded pixel of each voxel maps back to that voxel, and its 3D point does too.
-  const auto& k = frame.intrinsics;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const int u = cloud.pixel_u[i];
-    const int v = cloud.pixel_v[i];
-    EXPECT_EQ(preprocessor.voxel_index_at(u, v), static_cast<int>(i));
-    const float z = frame.depth_mm[static_cast<std::size_t>(v * frame.width + u)] * 0.001f;
-    const Eigen::Vector3f p((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
-    EXPECT_EQ(preprocessor.voxel_index_of(p), static_cast<int>(i));
-    // The mean of a voxel lies inside it.
-    const Eigen::Vector3f cell = (p / 0.005f).array().floor();
-    const Eigen::Vector3f mean_cell = (cloud.positions[i] / 0.005f).array().floor();
-    EXPECT_EQ(cell, mean_cell);
-  }
+  // The recorded pixel of each voxel maps back to that voxel, its 3D point does too, and the mean lies inside it
+  // (the fixed 5 mm grid at the origin).
+  EXPECT_EQ(cloud.voxel_size, 0.005f);
+  EXPECT_EQ(cloud.voxel_origin, Eigen::Vector3f::Zero());
+  expect_voxels_hold_their_pixels(preprocessor, cloud, frame);
   // Dense labels: table pixels and empty pixels are -1, box pixels point at a voxel.
   const auto labels = preprocessor.pixel_voxel_index();
   ASSERT_EQ(labels.size(), frame.depth_mm.size());
@@ -232,20 +241,8 @@ TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
     }
   }
 
-  // Each voxel's mean and its recorded pixel's point lie in one cell of the moved grid.
-  const SceneCloud& last = backward.scene();  // seq 1
-  const auto& k = frame.intrinsics;
-  const auto cell = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
-    return ((p - last.voxel_origin) / options.voxel_size).array().floor();
-  };
-  for (std::size_t i = 0; i < last.size(); ++i) {
-    const int u = last.pixel_u[i];
-    const int v = last.pixel_v[i];
-    const float z = frame.depth_mm[static_cast<std::size_t>(v * frame.width + u)] * 0.001f;
-    const Eigen::Vector3f p((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
-    EXPECT_EQ(backward.voxel_index_of(p), static_cast<int>(i));
-    EXPECT_EQ(cell(p), cell(last.positions[i]));
-  }
+  // Each voxel's mean and its recorded pixel's point lie in one cell of the moved grid (seq 1, the last processed).
+  expect_voxels_hold_their_pixels(backward, backward.scene(), frame);
 
   // Off (the default): the grid stays at the origin for every seq.
   Preprocessor fixed;
