@@ -46,8 +46,7 @@ void SceneCloud::clear() {
   cluster.clear();
   num_clusters = 0;
   plane = TablePlane{};
-  voxel_size = 0.f;
-  voxel_origin = Eigen::Vector3f::Zero();
+  voxel_grid = VoxelGrid{};
 }
 
 void PreprocessorOptions::validate() const {
@@ -123,8 +122,7 @@ const SceneCloud& Preprocessor::process(const RgbdImageView& image, std::int64_t
   });
 
   scene_.plane = plane_;
-  scene_.voxel_size = voxels_.leaf_size();
-  scene_.voxel_origin = voxels_.grid_origin();
+  scene_.voxel_grid = VoxelGrid{.leaf = voxels_.leaf_size(), .corner = voxels_.grid_origin()};
   scene_.positions.assign(voxels_.positions().begin(), voxels_.positions().end());
   scene_.colors.assign(voxels_.colors().begin(), voxels_.colors().end());
   scene_.pixel_u.resize(voxel_count);

@@ -125,8 +125,7 @@ int main(int argc, char** argv) {
     t = Clock::now();
     const mfot::service::Image16 labels =
         mfot::service::dense_labels(frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy, frame.depth_mm,
-                                    scene.voxel_size, scene.voxel_origin, scene.cloud.positions,
-                                    seg_it->second.label);
+                                    scene.voxel_grid, scene.cloud.positions, seg_it->second.label);
     series["dense labels"].values.push_back(ms_since(t));
     char name[32];
     std::snprintf(name, sizeof name, "/labels/%06lld.png", static_cast<long long>(seq));

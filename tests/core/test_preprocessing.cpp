@@ -47,9 +47,6 @@ Frame constant_depth_frame(int width, int height, std::uint16_t left_mm, std::ui
 // its 3D point does too, and the voxel's mean lies in the same cell of the scene's grid (its leaf and corner).
 void expect_voxels_hold_their_pixels(const Preprocessor& preprocessor, const SceneCloud& cloud, const Frame& frame) {
   const auto& k = frame.intrinsics;
-  const auto cell = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
-    return ((p - cloud.voxel_origin) / cloud.voxel_size).array().floor();
-  };
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const int u = cloud.pixel_u[i];
     const int v = cloud.pixel_v[i];
@@ -57,7 +54,7 @@ void expect_voxels_hold_their_pixels(const Preprocessor& preprocessor, const Sce
     const float z = frame.depth_mm[static_cast<std::size_t>(v * frame.width + u)] * 0.001f;
     const Eigen::Vector3f p((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
     EXPECT_EQ(preprocessor.voxel_index_of(p), static_cast<int>(i));
-    EXPECT_EQ(cell(p), cell(cloud.positions[i]));
+    EXPECT_EQ(cloud.voxel_grid.cell_of(p), cloud.voxel_grid.cell_of(cloud.positions[i]));
   }
 }
 
@@ -192,8 +189,8 @@ TEST(Preprocessor, VoxelsAreSparserThanLeafAndPixelsMapBack) {
 
   // The recorded pixel of each voxel maps back to that voxel, its 3D point does too, and the mean lies inside it
   // (the fixed 5 mm grid at the origin).
-  EXPECT_EQ(cloud.voxel_size, 0.005f);
-  EXPECT_EQ(cloud.voxel_origin, Eigen::Vector3f::Zero());
+  EXPECT_EQ(cloud.voxel_grid.leaf, 0.005f);
+  EXPECT_EQ(cloud.voxel_grid.corner, Eigen::Vector3f::Zero());
   expect_voxels_hold_their_pixels(preprocessor, cloud, frame);
   // Dense labels: table pixels and empty pixels are -1, box pixels point at a voxel.
   const auto labels = preprocessor.pixel_voxel_index();
@@ -226,17 +223,17 @@ TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
   for (std::int64_t seq = 3; seq >= 1; --seq) {
     const SceneCloud& again = backward.process(frame.view(), seq);
     const SceneCloud& first = by_seq[static_cast<std::size_t>(seq)];
-    EXPECT_EQ(again.voxel_origin, first.voxel_origin);
+    EXPECT_EQ(again.voxel_grid.corner, first.voxel_grid.corner);
     ASSERT_EQ(again.positions, first.positions);
     EXPECT_EQ(again.num_clusters, 2);
   }
   for (std::size_t seq = 1; seq <= 3; ++seq) {
     const SceneCloud& cloud = by_seq[seq];
-    EXPECT_EQ(cloud.voxel_size, options.voxel_size);  // the grid travels whole: its leaf and its corner
-    EXPECT_TRUE((cloud.voxel_origin.array() >= 0.f).all() && (cloud.voxel_origin.array() < options.voxel_size).all())
-        << cloud.voxel_origin.transpose();
+    const Eigen::Vector3f& corner = cloud.voxel_grid.corner;
+    EXPECT_EQ(cloud.voxel_grid.leaf, options.voxel_size);  // the grid travels whole: its leaf and its corner
+    EXPECT_TRUE((corner.array() >= 0.f).all() && (corner.array() < options.voxel_size).all()) << corner.transpose();
     for (std::size_t other = seq + 1; other <= 3; ++other) {
-      EXPECT_NE(cloud.voxel_origin, by_seq[other].voxel_origin);
+      EXPECT_NE(corner, by_seq[other].voxel_grid.corner);
       EXPECT_NE(cloud.positions, by_seq[other].positions);  // another grid, other voxel means
     }
   }
@@ -246,7 +243,7 @@ TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
 
   // Off (the default): the grid stays at the origin for every seq.
   Preprocessor fixed;
-  EXPECT_EQ(fixed.process(frame.view(), 5).voxel_origin, Eigen::Vector3f::Zero());
+  EXPECT_EQ(fixed.process(frame.view(), 5).voxel_grid.corner, Eigen::Vector3f::Zero());
   const std::vector<Eigen::Vector3f> at_five = fixed.scene().positions;
   EXPECT_EQ(fixed.process(frame.view(), 6).positions, at_five);
 }

@@ -255,7 +255,8 @@ TEST(Convert, SceneMessageBecomesTheSceneItDescribes) {
   ASSERT_FALSE(scene_from_message(msg, scene).has_value());
   EXPECT_EQ(scene.frame_seq, 42);
   EXPECT_EQ(scene.capture_utime, 1700000000123456);
-  EXPECT_EQ(scene.voxel_origin, Eigen::Vector3f(0.001f, 0.0025f, 0.004f));
+  EXPECT_EQ(scene.voxel_grid.leaf, 0.005f);
+  EXPECT_EQ(scene.voxel_grid.corner, Eigen::Vector3f(0.001f, 0.0025f, 0.004f));
   ASSERT_EQ(scene.cloud.size(), 9u);
   ASSERT_EQ(scene.cluster.size(), 9u);
   for (std::size_t i = 0; i < 9; ++i) {
@@ -329,8 +330,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   cloud.num_clusters = 1;
   cloud.plane.valid = true;
   cloud.plane.coefficients = Eigen::Vector4f(0.f, -1.f, 0.f, 0.8f);
-  cloud.voxel_size = 0.005f;
-  cloud.voxel_origin = Eigen::Vector3f(0.003f, 0.f, 0.0015f);
+  cloud.voxel_grid = VoxelGrid{.leaf = 0.005f, .corner = Eigen::Vector3f(0.003f, 0.f, 0.0015f)};
   frame_t source{};
   source.seq = 17;
   source.capture_utime = 123456;
@@ -352,8 +352,8 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   ASSERT_FALSE(scene_from_message(msg, scene).has_value());
   EXPECT_EQ(scene.frame_seq, 17);
   EXPECT_EQ(scene.capture_utime, 123456);
-  EXPECT_EQ(scene.voxel_size, 0.005f);
-  EXPECT_EQ(scene.voxel_origin, cloud.voxel_origin);
+  EXPECT_EQ(scene.voxel_grid.leaf, 0.005f);
+  EXPECT_EQ(scene.voxel_grid.corner, cloud.voxel_grid.corner);
   EXPECT_EQ(scene.cloud.positions, cloud.positions);
   EXPECT_EQ(scene.cluster, std::vector<std::int32_t>(cloud.cluster.begin(), cloud.cluster.end()));
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(scene.cloud.colors[i].r, cloud.colors[i].r);
@@ -367,8 +367,8 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   scene_from_cloud(cloud, decoded, source.seq, direct);
   EXPECT_EQ(direct.frame_seq, scene.frame_seq);
   EXPECT_EQ(direct.capture_utime, scene.capture_utime);
-  EXPECT_EQ(direct.voxel_size, scene.voxel_size);
-  EXPECT_EQ(direct.voxel_origin, scene.voxel_origin);
+  EXPECT_EQ(direct.voxel_grid.leaf, scene.voxel_grid.leaf);
+  EXPECT_EQ(direct.voxel_grid.corner, scene.voxel_grid.corner);
   EXPECT_EQ(direct.cloud.positions, scene.cloud.positions);
   EXPECT_EQ(direct.cluster, scene.cluster);
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(direct.cloud.colors[i].g, scene.cloud.colors[i].g);

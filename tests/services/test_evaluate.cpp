@@ -340,7 +340,8 @@ TEST(Evaluate, DenseLabelsMarkMeasuredPixelsOutsideTheScene) {
   const auto at_pixel = [&](int u) { return Eigen::Vector3f((static_cast<float>(u) - 0.f) / f, 0.f, 1.f); };
   const std::vector<Eigen::Vector3f> scene = {at_pixel(1), at_pixel(2)};
   const std::vector<std::int32_t> labels = {7, 0};
-  const auto image = service::dense_labels(4, 1, f, f, 0.f, 0.f, depth, 0.005f, Eigen::Vector3f::Zero(), scene, labels);
+  const VoxelGrid grid{.leaf = 0.005f, .corner = Eigen::Vector3f::Zero()};
+  const auto image = service::dense_labels(4, 1, f, f, 0.f, 0.f, depth, grid, scene, labels);
   EXPECT_EQ(image.pixels, (std::vector<std::uint16_t>{0, 7, 0, service::kNotScenePoint}));
 }
 
@@ -353,14 +354,16 @@ TEST(Evaluate, DenseLabelsFollowTheFramesVoxelGrid) {
   const std::vector<Eigen::Vector3f> scene = {Eigen::Vector3f(0.003f, 0.001f, 1.001f)};
   const std::vector<std::int32_t> labels = {7};
   const std::uint16_t none = service::kNotScenePoint;
-  EXPECT_EQ(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f::Zero(), scene, labels).pixels,
+  const auto grid_at = [](const Eigen::Vector3f& corner) { return VoxelGrid{.leaf = 0.005f, .corner = corner}; };
+  EXPECT_EQ(service::dense_labels(4, 1, f, f, cx, 0.f, depth, grid_at(Eigen::Vector3f::Zero()), scene, labels).pixels,
             (std::vector<std::uint16_t>{0, 7, 7, none}));
-  EXPECT_EQ(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f(0.0025f, 0.f, 0.f), scene,
-                                  labels)
-                .pixels,
-            (std::vector<std::uint16_t>{0, none, 7, 7}));
-  EXPECT_THROW(service::dense_labels(4, 1, f, f, cx, 0.f, depth, 0.005f, Eigen::Vector3f(NAN, 0.f, 0.f), scene, labels),
-               std::invalid_argument);
+  EXPECT_EQ(
+      service::dense_labels(4, 1, f, f, cx, 0.f, depth, grid_at(Eigen::Vector3f(0.0025f, 0.f, 0.f)), scene, labels)
+          .pixels,
+      (std::vector<std::uint16_t>{0, none, 7, 7}));
+  EXPECT_THROW(
+      service::dense_labels(4, 1, f, f, cx, 0.f, depth, grid_at(Eigen::Vector3f(NAN, 0.f, 0.f)), scene, labels),
+      std::invalid_argument);
 }
 
 TEST(Evaluate, FittingAndTimingAreSummarised) {

@@ -37,6 +37,7 @@
 
 #include "mfot/thread_pool.hpp"
 #include "mfot/types.hpp"
+#include "mfot/voxel_grid.hpp"
 
 #include <Eigen/Core>
 
@@ -89,9 +90,7 @@ struct SceneCloud {
   std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
   int num_clusters = 0;
   TablePlane plane;                        // the plane used for this frame (invalid: none removed)
-  float voxel_size = 0.f;                  // the voxel grid's leaf, metres (0 before the first frame)
-  Eigen::Vector3f voxel_origin = Eigen::Vector3f::Zero();  // the voxel grid's corner, metres: voxels are
-                                           // the cells floor((p - voxel_origin) / voxel_size)
+  VoxelGrid voxel_grid;                    // step 4's grid of this frame (leaf 0 before the first frame)
 
   std::size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }

@@ -52,8 +52,8 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     out.view = ViewBounds::of_image(msg.width, msg.height, msg.fx, msg.fy, msg.cx, msg.cy);
   }
   out.frame_seq = msg.frame_seq;
-  out.voxel_size = msg.voxel_size;
-  out.voxel_origin = Eigen::Vector3f(msg.voxel_origin[0], msg.voxel_origin[1], msg.voxel_origin[2]);
+  out.voxel_grid = VoxelGrid{.leaf = msg.voxel_size,
+                             .corner = Eigen::Vector3f(msg.voxel_origin[0], msg.voxel_origin[1], msg.voxel_origin[2])};
   out.capture_utime = msg.capture_utime;
   out.cloud.clear();
   out.cloud.reserve(n);
@@ -100,8 +100,8 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, scene_clou
   out.fy = source.fy;
   out.cx = source.cx;
   out.cy = source.cy;
-  out.voxel_size = scene.voxel_size;
-  for (int i = 0; i < 3; ++i) out.voxel_origin[i] = scene.voxel_origin[i];
+  out.voxel_size = scene.voxel_grid.leaf;
+  for (int i = 0; i < 3; ++i) out.voxel_origin[i] = scene.voxel_grid.corner[i];
   for (int i = 0; i < 4; ++i) out.plane[i] = scene.plane.valid ? scene.plane.coefficients[i] : 0.f;
   out.num_points = static_cast<std::int32_t>(n);
   write_points(scene.positions, scene.colors, out);
@@ -114,8 +114,7 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, scene_clou
 void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t seq, Scene& out) {
   out.frame_seq = seq;
   out.capture_utime = source.capture_utime;
-  out.voxel_size = cloud.voxel_size;
-  out.voxel_origin = cloud.voxel_origin;
+  out.voxel_grid = cloud.voxel_grid;
   out.cloud.positions = cloud.positions;
   out.cloud.colors = cloud.colors;
   out.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());

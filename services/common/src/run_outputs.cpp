@@ -39,20 +39,19 @@ void RunOutputs::write_frame(const Scene& scene, std::span<const std::int32_t> l
   if (!options_.write_labels) frame.reset();
   if (!queue_) {
     write_outputs(scene.frame_seq, scene.cloud.positions, {labels.begin(), labels.end()}, fitting, frame,
-                  scene.voxel_size, scene.voxel_origin);
+                  scene.voxel_grid);
     return;
   }
   queue_->push([this, seq = scene.frame_seq, points = scene.cloud.positions,
                 labels = std::vector<std::int32_t>(labels.begin(), labels.end()), fitting = std::move(fitting),
-                frame = std::move(frame), voxel_size = scene.voxel_size, voxel_origin = scene.voxel_origin] {
-    write_outputs(seq, points, labels, fitting, frame, voxel_size, voxel_origin);
+                frame = std::move(frame), voxel_grid = scene.voxel_grid] {
+    write_outputs(seq, points, labels, fitting, frame, voxel_grid);
   });
 }
 
 void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points,
                                const std::vector<std::int32_t>& labels, const std::vector<FittingInput>& fitting,
-                               const std::optional<frame_t>& frame, float voxel_size,
-                               const Eigen::Vector3f& voxel_origin) {
+                               const std::optional<frame_t>& frame, const VoxelGrid& voxel_grid) {
   // The fitting distances and the label image are independent: side by side they keep the output
   // thread ahead of the frame rate (at ~100 frames/s one after the other did not). Made here so
   // that its thread inherits the output thread's lower priority. Below 4 cores there is no core to
@@ -72,8 +71,8 @@ void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector
     if (!frame) return;
     try {
       const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
-      writer_.write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_size,
-                                             voxel_origin, points, labels));
+      writer_.write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_grid,
+                                             points, labels));
     } catch (const FrameCodecError& e) {
       malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
     }

@@ -104,19 +104,20 @@ void RunWriter::flush() {
 }
 
 Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,
-                     std::span<const std::uint16_t> depth_mm, float voxel_size, const Eigen::Vector3f& voxel_origin,
+                     std::span<const std::uint16_t> depth_mm, const VoxelGrid& voxel_grid,
                      std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels) {
   if (width <= 0 || height <= 0 || depth_mm.size() != static_cast<std::size_t>(width) * height) {
     throw std::invalid_argument("dense_labels: depth image size does not match width x height");
   }
   if (scene_points.size() != labels.size()) throw std::invalid_argument("dense_labels: one label per scene point");
-  if (!(voxel_size > 0.f)) throw std::invalid_argument("dense_labels: voxel_size must be > 0");
-  if (!voxel_origin.allFinite()) throw std::invalid_argument("dense_labels: voxel_origin must be finite");
+  if (!(voxel_grid.leaf > 0.f)) throw std::invalid_argument("dense_labels: voxel_size must be > 0");
+  if (!voxel_grid.corner.allFinite()) throw std::invalid_argument("dense_labels: voxel_origin must be finite");
   Image16 out;
   out.width = width;
   out.height = height;
   out.pixels.assign(depth_mm.size(), 0);
-  const float inv = 1.f / voxel_size;
+  const float inv = 1.f / voxel_grid.leaf;
+  const Eigen::Vector3f& corner = voxel_grid.corner;
   // Pixels whose cell lies outside the scene's cell box are no scene point without a lookup.
   std::array<std::int64_t, 3> lo{std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::max(),
                                  std::numeric_limits<std::int64_t>::max()};
@@ -124,7 +125,7 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
                                  std::numeric_limits<std::int64_t>::min()};
   VoxelLabels label_of_voxel(scene_points.size());
   for (std::size_t k = 0; k < scene_points.size(); ++k) {
-    const Eigen::Vector3f p = scene_points[k] - voxel_origin;
+    const Eigen::Vector3f p = scene_points[k] - corner;
     const std::array<std::int64_t, 3> c{cell_of(p.x(), inv), cell_of(p.y(), inv), cell_of(p.z(), inv)};
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], c[a]);
@@ -140,9 +141,9 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
       const std::size_t i = static_cast<std::size_t>(v) * width + u;
       if (depth_mm[i] == 0) continue;
       const float z = static_cast<float>(depth_mm[i]) * 0.001f;
-      const std::int64_t kz = cell_of(z - voxel_origin.z(), inv);
-      const std::int64_t ky = cell_of(ry * z - voxel_origin.y(), inv);
-      const std::int64_t kx = cell_of(ray_x[static_cast<std::size_t>(u)] * z - voxel_origin.x(), inv);
+      const std::int64_t kz = cell_of(z - corner.z(), inv);
+      const std::int64_t ky = cell_of(ry * z - corner.y(), inv);
+      const std::int64_t kx = cell_of(ray_x[static_cast<std::size_t>(u)] * z - corner.x(), inv);
       std::int32_t label = -1;
       if (kz >= lo[2] && kz <= hi[2] && ky >= lo[1] && ky <= hi[1] && kx >= lo[0] && kx <= hi[0]) {
         label = label_of_voxel.find(voxel_key(kx, ky, kz));

@@ -23,8 +23,7 @@ namespace mfot::service {
 struct Scene {
   std::int64_t frame_seq = 0;
   std::int64_t capture_utime = 0;
-  float voxel_size = 0.f;                // preprocess voxel leaf, metres
-  Eigen::Vector3f voxel_origin = Eigen::Vector3f::Zero();  // the voxel grid's corner, metres (SceneCloud)
+  VoxelGrid voxel_grid;                  // the preprocessor's grid of this frame (SceneCloud)
   ColoredCloud cloud;                    // camera frame
   std::vector<std::int32_t> cluster;     // per point, -1 = none
   std::optional<ViewBounds> view;        // the source image's field of view; nullopt: not given (size or fx 0)

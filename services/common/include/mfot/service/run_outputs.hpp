@@ -57,8 +57,8 @@ class RunOutputs {
     Pose pose;
   };
   void write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points, const std::vector<std::int32_t>& labels,
-                     const std::vector<FittingInput>& fitting, const std::optional<frame_t>& frame, float voxel_size,
-                     const Eigen::Vector3f& voxel_origin);
+                     const std::vector<FittingInput>& fitting, const std::optional<frame_t>& frame,
+                     const VoxelGrid& voxel_grid);
 
   RunOutputsOptions options_;
   MalformedCounter& malformed_;

@@ -6,6 +6,7 @@
 
 #include "mfot/service/image_io.hpp"
 #include "mfot/types.hpp"
+#include "mfot/voxel_grid.hpp"
 
 #include <cstdint>
 #include <fstream>
@@ -46,10 +47,10 @@ inline constexpr std::uint16_t kNotScenePoint = 65535;
 
 // Dense label image: every pixel whose back-projected 3D point falls in a scene voxel carries
 // that voxel's label (0 = no object); other measured pixels carry kNotScenePoint, unmeasured 0.
-// Voxels are the cells floor((p - voxel_origin) / voxel_size) (the preprocess grid of that frame);
+// Voxels are the cells of voxel_grid (the preprocess grid of that frame);
 // scene point k (a voxel mean, so inside its voxel) carries labels[k].
 Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,
-                     std::span<const std::uint16_t> depth_mm, float voxel_size, const Eigen::Vector3f& voxel_origin,
+                     std::span<const std::uint16_t> depth_mm, const VoxelGrid& voxel_grid,
                      std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels);
 
 }  // namespace mfot::service
