@@ -6,6 +6,8 @@
 #include "mfot/point_scatter.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -20,6 +22,7 @@ void PartRefitOptions::validate(const std::string& owner) const {
   check("min_coverage", min_coverage, 0.0, 1.0);
   check("min_rotation", min_rotation, 0.0, std::numbers::pi);
   check("min_translation", min_translation, 0.0, 1.0);
+  check("min_held_rotation", min_held_rotation, 0.0, 1.0);
   icp.validate(owner + ".icp");
   if (icp.iterations == 0) throw std::invalid_argument(owner + ".icp.iterations must be > 0");
 }
@@ -100,19 +103,94 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
       first_view_icp_.refine(part_scene_[0], model.subspan(0, part_ends[0]), estimate);
   if (!first_view.refined) return 0;
   const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
-  // 4.-5. each grown part's misplacement, undone
+  const bool keeps_held = options_.min_held_rotation > 0.f;
+  if (keeps_held) normals_.assign(model.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  const Eigen::Matrix3d first_view_held =
+      keeps_held ? first_view_rotations(part_scene_[0], model, part_ends[0], first_view.pose) : Eigen::Matrix3d::Identity();
+  // 4.-6. each grown part's misplacement, undone
   std::size_t moved = 0;
   for (const std::size_t part : seen_parts_) {
     const std::span<Eigen::Vector3f> points = model.subspan(part_ends[part - 1], part_ends[part] - part_ends[part - 1]);
     const IcpResult fitted = part_icp_.refine(part_scene_[part], points, first_view.pose);
     if (!fitted.refined) continue;
-    const Eigen::Isometry3f misplacement = first_view_pose.inverse() * fitted.pose.isometry();
+    Eigen::Isometry3f misplacement = first_view_pose.inverse() * fitted.pose.isometry();
+    if (keeps_held) {
+      const Eigen::AngleAxisf measured(misplacement.linear());
+      const Eigen::Vector3d held = first_view_held * (measured.angle() * measured.axis()).cast<double>();
+      Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+      for (const Eigen::Vector3f& p : points) centroid += p;
+      centroid /= static_cast<float>(points.size());
+      const Eigen::Vector3f centroid_moved = misplacement * centroid;
+      const double angle = held.norm();
+      misplacement.linear() = angle > 0.0 ? Eigen::AngleAxisf(static_cast<float>(angle), (held / angle).cast<float>())
+                                                .toRotationMatrix()
+                                          : Eigen::Matrix3f::Identity();
+      misplacement.translation() = centroid_moved - misplacement.linear() * centroid;
+    }
     const float rotation = Eigen::AngleAxisf(misplacement.linear()).angle();
     if (rotation < options_.min_rotation && misplacement.translation().norm() < options_.min_translation) continue;
     for (Eigen::Vector3f& p : points) p = misplacement * p;
     ++moved;
   }
   return moved;
+}
+
+Eigen::Matrix3d PartRefit::first_view_rotations(std::span<const Eigen::Vector3f> scene,
+                                                std::span<const Eigen::Vector3f> model, std::uint32_t first_view_end,
+                                                const Pose& pose) {
+  const float radius = options_.icp.max_distance;
+  const auto normal_at = [&](std::uint32_t k) -> const Eigen::Vector3f& {
+    Eigen::Vector3f& normal = normals_[k];
+    if (std::isnan(normal.x())) {
+      neighbours_.clear();  // radius_search appends
+      model_hash_.radius_search(model[k], radius, neighbours_);
+      PointScatter scatter;
+      for (const int j : neighbours_) {
+        if (static_cast<std::uint32_t>(j) < first_view_end) scatter.add(model[static_cast<std::size_t>(j)]);
+      }
+      // A point without a plane around it (fewer than 3 first-view neighbours) pairs along no normal.
+      normal = scatter.count() >= 3 ? Eigen::Vector3f(scatter.least_spread_direction().cast<float>())
+                                    : Eigen::Vector3f::Zero();
+    }
+    return normal;
+  };
+  // Point-to-plane normal equations over (rotation, translation) in the object frame, per pair:
+  // a = (m x n, n), the change of the pair's distance along n per unit of each.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  std::size_t pairs = 0;
+  const Eigen::Isometry3f to_object = pose.isometry().inverse();
+  for (const Eigen::Vector3f& p : scene) {
+    const int nearest = model_hash_.nearest(to_object * p, radius);
+    if (nearest < 0 || static_cast<std::uint32_t>(nearest) >= first_view_end) continue;
+    const Eigen::Vector3f& n = normal_at(static_cast<std::uint32_t>(nearest));
+    Eigen::Matrix<double, 6, 1> a;
+    a << model[static_cast<std::size_t>(nearest)].cross(n).cast<double>(), n.cast<double>();
+    information.noalias() += a * a.transpose();
+    ++pairs;
+  }
+  if (pairs == 0) return Eigen::Matrix3d::Zero();
+  information /= static_cast<double>(pairs);
+  // The translation marginalised (Schur complement; its pseudo-inverse: a single face holds one direction).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(information.bottomRightCorner<3, 3>());
+  const double largest = translation.eigenvalues().maxCoeff();
+  Eigen::Vector3d inverse_values = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 3; ++i) {
+    if (translation.eigenvalues()(i) > 1e-9 * largest) inverse_values(i) = 1.0 / translation.eigenvalues()(i);
+  }
+  const Eigen::Matrix3d translation_inverse =
+      translation.eigenvectors() * inverse_values.asDiagonal() * translation.eigenvectors().transpose();
+  const Eigen::Matrix3d rotation_information =
+      information.topLeftCorner<3, 3>() -
+      information.topRightCorner<3, 3>() * translation_inverse * information.bottomLeftCorner<3, 3>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotations(rotation_information);
+  const Eigen::Vector3d levers = rotations.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  Eigen::Matrix3d held = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 3; ++i) {
+    if (levers(i) > 0.0 && levers(i) >= options_.min_held_rotation * levers.maxCoeff()) {
+      held += rotations.eigenvectors().col(i) * rotations.eigenvectors().col(i).transpose();
+    }
+  }
+  return held;  // the projector onto the held rotations
 }
 
 }  // namespace mfot

@@ -292,7 +292,8 @@ TEST(Config, CarryKeysReachTheManager) {
 TEST(Config, RefitKeysReachTheManager) {
   const MergerConfig m = load_merger_config(with_defaults(
       "merger:\n  refit:\n    enabled: false\n    min_points: 90\n    min_spread: 0.02\n    min_coverage: 0.6\n"
-      "    min_rotation_deg: 1\n    min_translation: 0.003\n    icp_iterations: 7\n    icp_max_distance: 0.008\n"
+      "    min_rotation_deg: 1\n    min_translation: 0.003\n    min_held_rotation: 0.3\n    icp_iterations: 7\n"
+      "    icp_max_distance: 0.008\n"
       "    icp_min_paired_share: 0.7\n    icp_max_translation: 0.015\n    icp_max_rotation_deg: 8\n"
       "    icp_max_points: 500\n"));
   const PartRefitOptions& r = m.manager.refit;
@@ -302,6 +303,7 @@ TEST(Config, RefitKeysReachTheManager) {
   EXPECT_FLOAT_EQ(r.min_coverage, 0.6f);
   EXPECT_NEAR(r.min_rotation, 1.f * std::numbers::pi_v<float> / 180.f, 1e-7f);
   EXPECT_FLOAT_EQ(r.min_translation, 0.003f);
+  EXPECT_FLOAT_EQ(r.min_held_rotation, 0.3f);
   EXPECT_EQ(r.icp.iterations, 7);
   EXPECT_FLOAT_EQ(r.icp.max_distance, 0.008f);
   EXPECT_FLOAT_EQ(r.icp.min_paired_share, 0.7f);
@@ -310,7 +312,8 @@ TEST(Config, RefitKeysReachTheManager) {
   EXPECT_EQ(r.icp.max_points, 500);
   EXPECT_TRUE(load_merger_config(with_defaults("")).manager.refit.enabled);  // the shipped default
   for (const std::string key : {"min_points: 2", "min_spread: -0.1", "min_coverage: 1.5", "min_rotation_deg: 200",
-                                "icp_iterations: 0", "icp_max_distance: 0", "icp_max_points: 1", "gain: 1"}) {
+                                "min_held_rotation: 1.5", "icp_iterations: 0", "icp_max_distance: 0",
+                                "icp_max_points: 1", "gain: 1"}) {
     expect_rejected(load_merger_config, "merger:\n  refit:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
 }

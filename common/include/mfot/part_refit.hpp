@@ -19,7 +19,18 @@
 //     (IcpRefinement, point to point): the pose that the object's frame, as first seen, gives;
 //  4. each grown part alone is registered on its scene points by ICP from that pose; the difference
 //     of the two poses is the part's misplacement in the object frame;
-//  5. a part misplaced by at least min_rotation or min_translation is moved by it (smaller ones are
+//  5. the misplacement keeps only the rotations that the first view's registration holds (with
+//     min_held_rotation > 0): it holds a rotation when turning by it moves its paired model points along
+//     their normals (point to plane, the translation left free). A box whose first view shows well only
+//     by its top holds no turn about the vertical, whatever point-to-point ICP's sampled faces pair with,
+//     and on `spin` that turn handed the lagging estimate to the grown face, 5-6 degrees for 60 frames
+//     (README "Refit keeps the rotations the first view holds"). The rotations are the eigenvectors of the
+//     registration's rotational information (point-to-plane normal equations per pair, the translation
+//     marginalised); one is held when its lever (square root of its eigenvalue, metres) is at least
+//     min_held_rotation times the strongest's. The rest of the misplacement's rotation is dropped; the
+//     part's centroid still moves as measured. (A grown part's own registration is not judged so: a whole
+//     face, which min_coverage asks for, holds its turn within its plane by its edges);
+//  6. a part misplaced by at least min_rotation or min_translation is moved by it (smaller ones are
 //     the fit's noise); an ICP refused (too few pairs, a correction beyond icp.max_rotation /
 //     icp.max_translation) moves nothing.
 // Deterministic, no random draws. Non-copyable: it owns the model hash, the ICPs and the part buffers.
@@ -44,6 +55,9 @@ struct PartRefitOptions {
   float min_coverage = 0.5f;     // share of the part's model points they come near [0, 1]
   float min_rotation = 0.0087f;  // a smaller misplacement is left: radians [0, pi] ...
   float min_translation = 0.002f;  // ... and metres [0, 1] (moved when either is reached)
+  // Step 5: a rotation is held by the first view when its lever is at least this share of the strongest's
+  // [0, 1]; 0 = the misplacement's whole rotation is kept.
+  float min_held_rotation = 0.5f;
   // Steps 3 and 4 (iterations, pairing distance, least paired share, largest correction, points).
   IcpRefinementOptions icp = [] {
     IcpRefinementOptions o;
@@ -77,6 +91,12 @@ class PartRefit {
   IcpRefinement part_icp_;
   std::vector<std::vector<Eigen::Vector3f>> part_scene_;  // per part: its scene points, camera frame
   std::vector<std::size_t> seen_parts_;                    // the grown parts seen well (step 2)
+  std::vector<Eigen::Vector3f> normals_;                   // per first-view point, computed when first needed (step 5)
+  std::vector<int> neighbours_;
+  // Step 5: the projector onto the rotations (object frame) that the registration of the first view (the
+  // model's points before first_view_end) on these scene points (camera frame) at this pose holds.
+  Eigen::Matrix3d first_view_rotations(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
+                                       std::uint32_t first_view_end, const Pose& pose);
 };
 
 }  // namespace mfot

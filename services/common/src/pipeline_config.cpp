@@ -276,6 +276,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.refit.min_coverage = refit.get<float>("min_coverage", 0.f, 1.f);
   c.manager.refit.min_rotation = refit.get<float>("min_rotation_deg", 0.f, 180.f) * kRadiansPerDegree;
   c.manager.refit.min_translation = refit.get<float>("min_translation", 0.f, 1.f);
+  c.manager.refit.min_held_rotation = refit.get<float>("min_held_rotation", 0.f, 1.f);
   c.manager.refit.icp.iterations = refit.get<int>("icp_iterations", 1, 50);
   c.manager.refit.icp.max_distance = refit.get<float>("icp_max_distance", 1e-4f, 0.1f);
   c.manager.refit.icp.min_paired_share = refit.get<float>("icp_min_paired_share", 0.f, 1.f);
