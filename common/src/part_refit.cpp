@@ -104,7 +104,7 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   if (!first_view.refined) return 0;
   const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
   const bool keeps_held = options_.min_held_rotation > 0.f;
-  if (keeps_held) normals_.assign(model.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  if (keeps_held) normals_.assign(part_ends[0], Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   const Eigen::Matrix3d first_view_held =
       keeps_held ? first_view_rotations(part_scene_[0], model, part_ends[0], first_view.pose) : Eigen::Matrix3d::Identity();
   // 4.-6. each grown part's misplacement, undone
