@@ -104,7 +104,6 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   if (!first_view.refined) return 0;
   const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
   const bool keeps_held = options_.min_held_rotation > 0.f;
-  if (keeps_held) normals_.assign(part_ends[0], Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   const Eigen::Matrix3d first_view_held =
       keeps_held ? first_view_rotations(part_scene_[0], model, part_ends[0], first_view.pose) : Eigen::Matrix3d::Identity();
   // 4.-6. each grown part's misplacement, undone
@@ -139,8 +138,9 @@ Eigen::Matrix3d PartRefit::first_view_rotations(std::span<const Eigen::Vector3f>
                                                 std::span<const Eigen::Vector3f> model, std::uint32_t first_view_end,
                                                 const Pose& pose) {
   const float radius = options_.icp.max_distance;
+  std::vector<Eigen::Vector3f>& normals = first_view_normals(model.first(first_view_end));
   const auto normal_at = [&](std::uint32_t k) -> const Eigen::Vector3f& {
-    Eigen::Vector3f& normal = normals_[k];
+    Eigen::Vector3f& normal = normals[k];
     if (std::isnan(normal.x())) {
       neighbours_.clear();  // radius_search appends
       model_hash_.radius_search(model[k], radius, neighbours_);
@@ -191,6 +191,22 @@ Eigen::Matrix3d PartRefit::first_view_rotations(std::span<const Eigen::Vector3f>
     }
   }
   return held;  // the projector onto the held rotations
+}
+
+std::vector<Eigen::Vector3f>& PartRefit::first_view_normals(std::span<const Eigen::Vector3f> first_view) {
+  const auto same = [&](const NormalCache& cached) {
+    return std::equal(first_view.begin(), first_view.end(), cached.points.begin(), cached.points.end());
+  };
+  auto found = std::find_if(normal_cache_.begin(), normal_cache_.end(), same);
+  if (found == normal_cache_.end()) {
+    // A first view not seen lately: another object's, or this one's thinned. The oldest entry makes way.
+    if (normal_cache_.size() >= kNormalCacheSize) normal_cache_.erase(normal_cache_.begin());
+    normal_cache_.push_back({std::vector<Eigen::Vector3f>(first_view.begin(), first_view.end()),
+                             std::vector<Eigen::Vector3f>(first_view.size(), Eigen::Vector3f::Constant(
+                                                                                 std::numeric_limits<float>::quiet_NaN()))});
+    found = normal_cache_.end() - 1;
+  }
+  return found->normals;
 }
 
 }  // namespace mfot

@@ -91,8 +91,16 @@ class PartRefit {
   IcpRefinement part_icp_;
   std::vector<std::vector<Eigen::Vector3f>> part_scene_;  // per part: its scene points, camera frame
   std::vector<std::size_t> seen_parts_;                    // the grown parts seen well (step 2)
-  std::vector<Eigen::Vector3f> normals_;                   // per first-view point, computed when first needed (step 5)
+  // Step 5's normals, per first view seen lately (one per object; a first view's points never move, so its normals
+  // are computed once each, when first paired): NaN until then.
+  struct NormalCache {
+    std::vector<Eigen::Vector3f> points;
+    std::vector<Eigen::Vector3f> normals;
+  };
+  static constexpr std::size_t kNormalCacheSize = 64;
+  std::vector<NormalCache> normal_cache_;
   std::vector<int> neighbours_;
+  std::vector<Eigen::Vector3f>& first_view_normals(std::span<const Eigen::Vector3f> first_view);
   // Step 5: the projector onto the rotations (object frame) that the registration of the first view (the
   // model's points before first_view_end) on these scene points (camera frame) at this pose holds.
   Eigen::Matrix3d first_view_rotations(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
