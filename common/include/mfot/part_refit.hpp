@@ -33,7 +33,8 @@
 //  6. a part misplaced by at least min_rotation or min_translation is moved by it (smaller ones are
 //     the fit's noise); an ICP refused (too few pairs, a correction beyond icp.max_rotation /
 //     icp.max_translation) moves nothing.
-// Deterministic, no random draws. Non-copyable: it owns the model hash, the ICPs and the part buffers.
+// Deterministic, no random draws. Non-copyable: it owns the model hash, the ICPs, the part buffers and the
+// first views' normals.
 
 #include "mfot/icp_refinement.hpp"
 #include "mfot/spatial_hash.hpp"
