@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
+#include <numbers>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -215,6 +216,21 @@ TEST(PartRefit, APartIsNotTurnedAboutAnAxisTheFirstViewDoesNotHold) {
               moved);
   EXPECT_GT(std::abs(test::degrees(static_cast<float>(whole_change.z()))), 1.f);
   EXPECT_LT(std::abs(test::degrees(static_cast<float>(held_change.z()))), 0.1f);
+  // The first view's normals are kept between calls: a re-fit that computed them before (with another object's first
+  // view seen in between) moves the same box exactly as the fresh one did.
+  PartRefit reused(options);
+  GrownBox earlier;
+  reused.refit(scene, earlier.model, earlier.part_ends, lagging);
+  // The same box with its object frame turned a quarter about x: seen as well, its normals differ index by index.
+  GrownBox other;
+  const Eigen::Quaternionf quarter_turn(Eigen::AngleAxisf(0.5f * std::numbers::pi_v<float>, Eigen::Vector3f::UnitX()));
+  for (Eigen::Vector3f& p : other.model) p = quarter_turn * p;
+  Pose other_lagging = lagging;
+  other_lagging.rotation = (lagging.rotation * quarter_turn.inverse()).normalized();
+  EXPECT_EQ(reused.refit(scene, other.model, other.part_ends, other_lagging), 1u);
+  GrownBox again;
+  EXPECT_EQ(reused.refit(scene, again.model, again.part_ends, lagging), moved);
+  EXPECT_EQ(again.model, box.model);
 }
 
 TEST(PartRefit, OffOrWithOnePartItMovesNothing) {
