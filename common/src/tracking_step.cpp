@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -77,6 +78,15 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
                                 std::to_string(last_pose_check_margin));
   }
+  const auto check_range = [](const char* field, float value, float low, float high) {
+    if (!(value >= low && value <= high)) {
+      throw std::invalid_argument(std::string("TrackingStepOptions.") + field + " must be in [" + std::to_string(low) +
+                                  ", " + std::to_string(high) + "], got " + std::to_string(value));
+    }
+  };
+  check_range("companion_turn_min", companion_turn_min, 0.f, std::numbers::pi_v<float>);
+  check_range("companion_turn_min_cosine", companion_turn_min_cosine, -1.f, 1.f);
+  check_range("companion_turn_max_kept", companion_turn_max_kept, 0.f, 1.f);
   if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
                                 std::to_string(last_pose_check_points));
@@ -146,6 +156,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   result.companion = companion != nullptr;
   result.estimate = filter.step(hypothesis_, likelihood,
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
+  const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
     const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;
@@ -160,6 +171,14 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
       result.estimate = filter.replace_estimate(*kept);
       (result.companion ? result.companion_pose_kept : result.last_pose_kept) = true;
     }
+  }
+  // 5e: the filter's turn, where the companion turned the same way and the refinement turned it back.
+  if (companion != nullptr && options_.companion_turn_min > 0.f &&
+      keeps_filter_turn(last, filtered, result.estimate, *companion)) {
+    Pose turned = result.estimate;
+    turned.rotation = filtered.rotation;
+    result.estimate = filter.replace_estimate(turned);
+    result.companion_turn_kept = true;
   }
   result.fit = fit_.fit(hypothesis_, model, model_box, result.estimate);
   if (options_.confidence_seen_through_weight > 0.f) {  // the scene's rays are indexed (validate)
@@ -186,6 +205,26 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
   };
   if (unexplained(start) < (1.f - options_.last_pose_check_margin) * unexplained(estimate)) return start;
   return std::nullopt;
+}
+
+bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined,
+                                     const PoseVector& companion) const {
+  // Turns as rotation vectors in the camera frame, composed on the left of the last estimate (apply_increment's convention).
+  const auto turn_from_last = [&](const Eigen::Quaternionf& rotation) {
+    const Eigen::AngleAxisf turn(rotation * last.rotation.conjugate());
+    return Eigen::Vector3f(turn.angle() * turn.axis());
+  };
+  const Eigen::Vector3f filter_turn = turn_from_last(filtered.rotation);
+  const Eigen::AngleAxisf companion_rotation(rotation_from_rpy(companion.tail<3>()));
+  const Eigen::Vector3f companion_turn = companion_rotation.angle() * companion_rotation.axis();
+  const float filter_angle = filter_turn.norm();
+  if (filter_angle < options_.companion_turn_min || !(companion_turn.norm() > 0.f)) return false;
+  if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_turn.norm()) {
+    return false;
+  }
+  // The share of the filter's turn that the refined estimate kept, along the filter's axis.
+  const float kept = turn_from_last(refined.rotation).dot(filter_turn) / (filter_angle * filter_angle);
+  return kept < options_.companion_turn_max_kept;
 }
 
 void TrackingStep::hold(ParticleFilter& filter, TrackingStepResult& result) {

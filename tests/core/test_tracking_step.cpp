@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -607,6 +608,53 @@ TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
   }
 }
 
+// Step 5e: the likelihood's mode (the box's own score) has turned 3 degrees since the last frame, as the hand that
+// grips it did, while the box's points still lie where they were (on the fixed voxel grid a box turned quickly from
+// rest gives the voxel means it gave at rest, so ICP turns the filter's estimate back). With the step on, the estimate
+// keeps the filter's turn and ICP's translation. Not with it off, nor when the companion turns the other way, nor
+// below companion_turn_min, nor where the refinement keeps the turn itself (the box's points turned too).
+TEST(TrackingStep, KeepsAFilterTurnTheCompanionAgreesOnWhereTheRefinementTurnsItBack) {
+  const HandOverBox setup;
+  const Pose last = setup.truth;
+  Pose turned = last;
+  turned.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(3.f), Eigen::Vector3f::UnitY())) *
+                     last.rotation).normalized();
+  ModeAt likelihood(turned);
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  const PoseVector turn = pose_difference(last, turned);
+  const ColoredCloud at_last = setup.scene(-0.05f);  // no hand
+  const ColoredCloud at_turned = test::transformed(test::make_test_object(0.5f), turned);
+  const auto run = [&](float min_deg, const PoseVector& companion, const ColoredCloud& scene) {
+    TrackingStepOptions options = occlusion_aware();
+    options.icp.iterations = 10;
+    options.companion_turn_min = test::radians(min_deg);
+    TrackingStep step(options);
+    step.set_companion_motion(companion);
+    ParticleFilter filter(filter_options());
+    filter.reset(last);
+    return step.track(scene, setup.model, box, filter, likelihood);
+  };
+  const TrackingStepResult kept = run(0.7f, turn, at_last);
+  ASSERT_TRUE(kept.companion);
+  EXPECT_TRUE(kept.companion_turn_kept);
+  // The filter's 100 particles took the box about half of the way to the mode: the estimate turned with them.
+  EXPECT_GT(test::degrees(test::rotation_error(kept.estimate, last)), 1.f);
+  EXPECT_LT(test::degrees(test::rotation_error(kept.estimate, turned)), 2.f);
+  // ICP's translation: that of the same frame with the step off (the same draws).
+  EXPECT_EQ(kept.estimate.translation, run(0.f, turn, at_last).estimate.translation);
+  // Off, the companion turning the other way, or a minimum above the filter's turn: ICP's estimate, where the box was.
+  for (const auto& [min_deg, companion] : {std::pair(0.f, turn), std::pair(0.7f, PoseVector(-turn)),
+                                           std::pair(10.f, turn)}) {
+    const TrackingStepResult held = run(min_deg, companion, at_last);
+    EXPECT_FALSE(held.companion_turn_kept) << "minimum " << min_deg;
+    EXPECT_LT(test::degrees(test::rotation_error(held.estimate, last)), 0.5f) << "minimum " << min_deg;
+  }
+  // The box's points turned too: ICP keeps the turn, and the step leaves its estimate.
+  const TrackingStepResult followed = run(0.7f, turn, at_turned);
+  EXPECT_FALSE(followed.companion_turn_kept);
+  EXPECT_LT(test::degrees(test::rotation_error(followed.estimate, turned)), 0.5f);
+}
+
 // Step 6: an estimate turned 12 degrees off the box still claims the box's points and most of them lie near its
 // model, so its fit stays high; the corners it turns into free space are seen through, and the weighted share
 // takes them off the confidence. A right estimate is barely seen through; weight 0 publishes the fit alone; a
@@ -718,6 +766,17 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the scene's rays are not indexed
   expect_invalid_with(o, "TrackingStepOptions.confidence_seen_through_weight needs hold_occluded_share > 0");
+  o = TrackingStepOptions{};
+  o.companion_turn_min = -0.01f;
+  expect_invalid_with(o, "TrackingStepOptions.companion_turn_min must be in [0");
+  o.companion_turn_min = 0.0122f;
+  o.companion_turn_min_cosine = 1.5f;
+  expect_invalid_with(o, "TrackingStepOptions.companion_turn_min_cosine must be in [-1");
+  o.companion_turn_min_cosine = 0.8f;
+  o.companion_turn_max_kept = std::numeric_limits<float>::quiet_NaN();
+  expect_invalid_with(o, "TrackingStepOptions.companion_turn_max_kept must be in [0");
+  o.companion_turn_max_kept = 0.3f;
+  EXPECT_NO_THROW(TrackingStep{o});
   o = occlusion_aware();
   o.companion_pose_check = true;
   EXPECT_NO_THROW(TrackingStep{o});

@@ -167,6 +167,19 @@ TEST(Config, TheCompanionPoseCheckKeyReachesTheStep) {
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: sometimes\n")), ConfigError);
 }
 
+TEST(Config, TheCompanionTurnKeysReachTheStep) {
+  const TrackerConfig c = load_tracker_config(with_defaults(
+      "tracker:\n  companion_turn_min_deg: 1.5\n  companion_turn_min_cosine: 0.6\n  companion_turn_max_kept: 0.4\n"));
+  EXPECT_NEAR(c.step.companion_turn_min, 1.5f * std::numbers::pi_v<float> / 180.f, 1e-7f);
+  EXPECT_FLOAT_EQ(c.step.companion_turn_min_cosine, 0.6f);
+  EXPECT_FLOAT_EQ(c.step.companion_turn_max_kept, 0.4f);
+  // Absent: the shipped step (configs/default.yaml: on), not the option struct's thesis value (off).
+  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_turn_min, 0.f);
+  expect_rejected(load_tracker_config, "tracker:\n  companion_turn_min_deg: -1\n", "companion_turn_min_deg");
+  expect_rejected(load_tracker_config, "tracker:\n  companion_turn_min_cosine: 1.5\n", "companion_turn_min_cosine");
+  expect_rejected(load_tracker_config, "tracker:\n  companion_turn_max_kept: 2\n", "companion_turn_max_kept");
+}
+
 TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
   const std::string keys = "tracker:\n  hypothesis_margin: 0.04\n  exclude_claimed_radius: 0.015\n";
   EXPECT_FLOAT_EQ(load_tracker_config(with_defaults(keys)).step.exclude_claimed_radius, 0.015f);

@@ -45,7 +45,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
                   step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
                   std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
                       (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : "") +
-                      (step.companion_pose_kept ? ", companion's pose kept" : ""),
+                      (step.companion_pose_kept ? ", companion's pose kept" : "") +
+                      (step.companion_turn_kept ? ", companion's turn kept" : ""),
                   step.fit, step.seen_through_share,
                   step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
   }

@@ -140,6 +140,9 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.last_pose_check_points = s.get<int>("last_pose_check_points", 3, 1000000);
   c.step.last_pose_check_margin = s.get<float>("last_pose_check_margin", 0.f, 0.99f);
   c.step.companion_pose_check = s.get<bool>("companion_pose_check");
+  c.step.companion_turn_min = s.get<float>("companion_turn_min_deg", 0.f, 180.f) * kRadiansPerDegree;
+  c.step.companion_turn_min_cosine = s.get<float>("companion_turn_min_cosine", -1.f, 1.f);
+  c.step.companion_turn_max_kept = s.get<float>("companion_turn_max_kept", 0.f, 1.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
