@@ -218,7 +218,10 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
   const Eigen::AngleAxisf companion_rotation(rotation_from_rpy(companion.tail<3>()));
   const Eigen::Vector3f companion_turn = companion_rotation.angle() * companion_rotation.axis();
   const float filter_angle = filter_turn.norm();
-  if (filter_angle < options_.companion_turn_min || !(companion_turn.norm() > 0.f)) return false;
+  if (filter_angle < options_.companion_turn_min || companion_rotation.angle() < options_.companion_turn_min ||
+      !(companion_rotation.angle() > 0.f)) {
+    return false;
+  }
   if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_turn.norm()) {
     return false;
   }

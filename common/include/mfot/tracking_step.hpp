@@ -112,11 +112,11 @@ struct TrackingStepOptions {
   // and the companion agree on"). On the preprocessor's fixed voxel grid a surface at rest gives the same voxel means
   // frame after frame, so a box that a hand turns quickly from rest pairs point to point with where it was: ICP turned
   // the filter's estimate back by about as much as the filter's step turned it, 1-2 degrees a frame, until the box was
-  // 11-14 degrees off (`rotate`, the hand's quick turn). In a frame where a companion's motion is set, the filter's step
-  // turned the estimate at least companion_turn_min from the last estimate, about an axis within
-  // acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate (after steps 5b-5d) keeps less
-  // than companion_turn_max_kept of that turn along it, the estimate takes the filter's rotation (about the object's
-  // origin) and keeps the refined translation. Two independent measurements agree on the turn, the box's own score and
+  // 11-14 degrees off (`rotate`, the hand's quick turn). In a frame where a companion's motion is set and turns at least
+  // companion_turn_min (a hand that pushes an object mostly slides it), the filter's step turned the estimate at least
+  // as much from the last estimate, about an axis within acos(companion_turn_min_cosine) of the companion's turn, and the
+  // refined estimate (after steps 5b-5d) keeps less than companion_turn_max_kept of that turn along it, the estimate
+  // takes the filter's rotation (about the object's origin) and keeps the refined translation. Two independent measurements agree on the turn, the box's own score and
   // the hand's motion; a hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed 86 (0.28 without).
   // Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
   float companion_turn_min = 0.f;
@@ -170,9 +170,9 @@ struct TrackingStepResult {
 //  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
 //      occluded: the same with the last estimate moved by the companion's motion (one block with 5c: a frame runs
 //      one of the two, by whether a companion is set);
-//  5e. when companion_turn_min > 0 and a companion's motion is set: where the filter's step turned the estimate at
-//      least that much, about an axis near the companion's turn, and the refined estimate kept less than
-//      companion_turn_max_kept of that turn, the estimate takes the filter's rotation;
+//  5e. when companion_turn_min > 0 and a companion's motion is set that turns at least that much: where the filter's
+//      step turned the estimate at least as much, about an axis near the companion's turn, and the refined estimate kept
+//      less than companion_turn_max_kept of that turn, the estimate takes the filter's rotation;
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -223,8 +223,8 @@ class TrackingStep {
   // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
   // estimate, else nullopt.
   std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate);
-  // Step 5e: whether the filter's estimate turned at least companion_turn_min from last, near the companion's turn, and
-  // the refined estimate kept less than companion_turn_max_kept of it.
+  // Step 5e: whether the companion and the filter's estimate (from last) both turned at least companion_turn_min, about
+  // axes within acos(companion_turn_min_cosine), and the refined estimate kept less than companion_turn_max_kept of it.
   bool keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined, const PoseVector& companion) const;
   SpatialHash claimed_hash_;                // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
