@@ -209,7 +209,8 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
 
 bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined,
                                      const PoseVector& companion) const {
-  // Turns as rotation vectors in the camera frame, composed on the left of the last estimate (apply_increment's convention).
+  // Turns as rotation vectors in the camera frame, composed on the left of the last estimate (apply_increment's
+  // convention). Called only with companion_turn_min > 0, so both turns are non-zero past the first test.
   const auto turn_from_last = [&](const Eigen::Quaternionf& rotation) {
     const Eigen::AngleAxisf turn(rotation * last.rotation.conjugate());
     return Eigen::Vector3f(turn.angle() * turn.axis());
@@ -218,9 +219,8 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
   const Eigen::AngleAxisf companion_rotation(rotation_from_rpy(companion.tail<3>()));
   const Eigen::Vector3f companion_turn = companion_rotation.angle() * companion_rotation.axis();
   const float filter_angle = filter_turn.norm();
-  if (filter_angle < options_.companion_turn_min || companion_rotation.angle() < options_.companion_turn_min ||
-      !(companion_rotation.angle() > 0.f)) {
-    return false;
+  if (!(filter_angle >= options_.companion_turn_min && companion_rotation.angle() >= options_.companion_turn_min)) {
+    return false;  // too small, or NaN
   }
   if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_turn.norm()) {
     return false;

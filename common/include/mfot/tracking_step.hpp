@@ -108,17 +108,18 @@ struct TrackingStepOptions {
   // place. Needs hold_occluded_share > 0. false = the filter's estimate (thesis); configs/default.yaml turns it on
   // (README "A gripped object started where its companion takes it, by default").
   bool companion_pose_check = false;
-  // The companion's turn, kept where the refinement turns it back (departure from the thesis; README "A turn the filter
-  // and the companion agree on"). On the preprocessor's fixed voxel grid a surface at rest gives the same voxel means
-  // frame after frame, so a box that a hand turns quickly from rest pairs point to point with where it was: ICP turned
-  // the filter's estimate back by about as much as the filter's step turned it, 1-2 degrees a frame, until the box was
-  // 11-14 degrees off (`rotate`, the hand's quick turn). In a frame where a companion's motion is set and turns at least
-  // companion_turn_min (a hand that pushes an object mostly slides it), the filter's step turned the estimate at least
-  // as much from the last estimate, about an axis within acos(companion_turn_min_cosine) of the companion's turn, and the
-  // refined estimate (after steps 5b-5d) keeps less than companion_turn_max_kept of that turn along it, the estimate
-  // takes the filter's rotation (about the object's origin) and keeps the refined translation. Two independent measurements agree on the turn, the box's own score and
-  // the hand's motion; a hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed 86 (0.28 without).
-  // Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
+  // The filter's turn, kept where the companion turns the same way and the refinement turns it back (step 5e; departure
+  // from the thesis; README "A turn the filter and the companion agree on"). On the preprocessor's fixed voxel grid a
+  // surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly from rest pairs
+  // point to point with where it was: ICP turned the filter's estimate back by about as much as the filter's step
+  // turned it, 1-2 degrees a frame, until the box was 11-14 degrees off (`rotate`, the hand's quick turn). In a frame
+  // where a companion's motion is set and turns at least companion_turn_min (a hand that pushes an object mostly slides
+  // it), the filter's step turned the estimate at least as much from the last estimate, about an axis within
+  // acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate (after steps 5b-5d) kept less than
+  // companion_turn_max_kept of that turn along it: the estimate takes the filter's rotation (about the object's origin)
+  // and keeps the refined translation. Two independent measurements agree on the turn, the box's own score and the
+  // hand's motion; the hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed 86 (0.28 at the
+  // defaults). Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
   float companion_turn_min = 0.f;
   float companion_turn_min_cosine = 0.8f;
   float companion_turn_max_kept = 0.3f;
