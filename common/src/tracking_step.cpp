@@ -2,6 +2,8 @@
 
 #include "mfot/tracking_step.hpp"
 
+#include "mfot/option_range.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -78,15 +80,9 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
                                 std::to_string(last_pose_check_margin));
   }
-  const auto check_range = [](const char* field, float value, float low, float high) {
-    if (!(value >= low && value <= high)) {
-      throw std::invalid_argument(std::string("TrackingStepOptions.") + field + " must be in [" + std::to_string(low) +
-                                  ", " + std::to_string(high) + "], got " + std::to_string(value));
-    }
-  };
-  check_range("companion_turn_min", companion_turn_min, 0.f, std::numbers::pi_v<float>);
-  check_range("companion_turn_min_cosine", companion_turn_min_cosine, -1.f, 1.f);
-  check_range("companion_turn_max_kept", companion_turn_max_kept, 0.f, 1.f);
+  require_in_range("TrackingStepOptions", "companion_turn_min", companion_turn_min, 0.0, std::numbers::pi, false);
+  require_in_range("TrackingStepOptions", "companion_turn_min_cosine", companion_turn_min_cosine, -1.0, 1.0, false);
+  require_in_range("TrackingStepOptions", "companion_turn_max_kept", companion_turn_max_kept, 0.0, 1.0, false);
   if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
                                 std::to_string(last_pose_check_points));
@@ -211,22 +207,21 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
                                      const PoseVector& companion) const {
   // Turns as rotation vectors in the camera frame, composed on the left of the last estimate (apply_increment's
   // convention). Called only with companion_turn_min > 0, so both turns are non-zero past the first test.
-  const auto turn_from_last = [&](const Eigen::Quaternionf& rotation) {
-    const Eigen::AngleAxisf turn(rotation * last.rotation.conjugate());
+  const auto rotation_vector = [](const Eigen::Quaternionf& rotation) {
+    const Eigen::AngleAxisf turn(rotation);
     return Eigen::Vector3f(turn.angle() * turn.axis());
   };
-  const Eigen::Vector3f filter_turn = turn_from_last(filtered.rotation);
-  const Eigen::AngleAxisf companion_rotation(rotation_from_rpy(companion.tail<3>()));
-  const Eigen::Vector3f companion_turn = companion_rotation.angle() * companion_rotation.axis();
+  const Eigen::Quaternionf from_last = last.rotation.conjugate();
+  const Eigen::Vector3f filter_turn = rotation_vector(filtered.rotation * from_last);
+  const Eigen::Vector3f companion_turn = rotation_vector(rotation_from_rpy(companion.tail<3>()));
   const float filter_angle = filter_turn.norm();
-  if (!(filter_angle >= options_.companion_turn_min && companion_rotation.angle() >= options_.companion_turn_min)) {
+  const float companion_angle = companion_turn.norm();
+  if (!(filter_angle >= options_.companion_turn_min && companion_angle >= options_.companion_turn_min)) {
     return false;  // too small, or NaN
   }
-  if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_turn.norm()) {
-    return false;
-  }
+  if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_angle) return false;
   // The share of the filter's turn that the refined estimate kept, along the filter's axis.
-  const float kept = turn_from_last(refined.rotation).dot(filter_turn) / (filter_angle * filter_angle);
+  const float kept = rotation_vector(refined.rotation * from_last).dot(filter_turn) / (filter_angle * filter_angle);
   return kept < options_.companion_turn_max_kept;
 }
 
