@@ -55,6 +55,7 @@ void TrackingStepOptions::validate() const {
   }
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
   icp.validate("TrackingStepOptions.icp");
+  require_in_range("TrackingStepOptions", "isolated_icp_max_distance", isolated_icp_max_distance, 0.0, 0.1, false);
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
         "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
@@ -94,6 +95,11 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
       occlusion_(options.occlusion),
       fit_(options.fit),
       icp_(options.icp),
+      isolated_icp_([&] {
+        IcpRefinementOptions isolated = options.icp;
+        if (options.isolated_icp_max_distance > 0.f) isolated.max_distance = options.isolated_icp_max_distance;
+        return isolated;
+      }()),
       last_pose_icp_([&] {
         IcpRefinementOptions sparse = options.icp;
         sparse.max_points = options.last_pose_check_points;
@@ -154,7 +160,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
-    const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
+    IcpRefinement& refinement = result.isolated && options_.isolated_icp_max_distance > 0.f ? isolated_icp_ : icp_;
+    const IcpResult icp = refinement.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }

@@ -208,7 +208,7 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
   const TrackerConfig icp = load_tracker_config(with_defaults(
       "tracker:\n  icp_iterations: 7\n  icp_max_distance: 0.02\n  icp_min_paired_share: 0.4\n"
       "  icp_max_translation: 0.03\n  icp_max_rotation: 0.2\n  icp_max_points: 300\n  icp_final_iterations: 4\n"
-      "  icp_final_points: 900\n  icp_anchor_weight: 7.5\n"));
+      "  icp_final_points: 900\n  icp_anchor_weight: 7.5\n  isolated_icp_max_distance: 0.006\n"));
   EXPECT_EQ(icp.step.icp.iterations, 7);
   EXPECT_FLOAT_EQ(icp.step.icp.max_distance, 0.02f);
   EXPECT_FLOAT_EQ(icp.step.icp.min_paired_share, 0.4f);
@@ -218,6 +218,7 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
   EXPECT_EQ(icp.step.icp.final_iterations, 4);
   EXPECT_EQ(icp.step.icp.final_points, 900);
   EXPECT_FLOAT_EQ(icp.step.icp.anchor_weight, 7.5f);
+  EXPECT_FLOAT_EQ(icp.step.isolated_icp_max_distance, 0.006f);
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
   // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
   EXPECT_NO_THROW(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
@@ -227,6 +228,8 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
       {"tracker:\n  isolated_refine_rounds: 21\n", "isolated_refine_rounds"},
       {"tracker:\n  icp_iterations: 51\n", "icp_iterations"},
       {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
+      {"tracker:\n  isolated_icp_max_distance: 0.2\n", "isolated_icp_max_distance"},
+      {"tracker:\n  isolated_icp_max_distance: -0.001\n", "isolated_icp_max_distance"},
       {"tracker:\n  icp_final_points: 2\n", "icp_final_points"},
       {"tracker:\n  icp_anchor_weight: 0.5\n", "icp_anchor_weight"},
       {"tracker:\n  icp_iterations: 3\n  icp_final_iterations: 4\n", "final_iterations"},

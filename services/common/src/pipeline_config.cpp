@@ -129,6 +129,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.isolated_motion.refine_rounds = s.get<int>("isolated_refine_rounds", 0, 20);
   c.step.icp.iterations = s.get<int>("icp_iterations", 0, 50);
   c.step.icp.max_distance = s.get<float>("icp_max_distance", 1e-4f, 0.1f);
+  c.step.isolated_icp_max_distance = s.get<float>("isolated_icp_max_distance", 0.f, 0.1f);
   c.step.icp.min_paired_share = s.get<float>("icp_min_paired_share", 0.f, 1.f);
   c.step.icp.max_translation = s.get<float>("icp_max_translation", 0.f, 1.f);
   c.step.icp.max_rotation = s.get<float>("icp_max_rotation", 0.f, 3.14159f);
