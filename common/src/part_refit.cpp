@@ -114,8 +114,8 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
     if (!fitted.refined) continue;
     Eigen::Isometry3f misplacement = first_view_pose.inverse() * fitted.pose.isometry();
     if (keeps_held) {
-      const Eigen::AngleAxisf measured(misplacement.linear());
-      const Eigen::Vector3d held = first_view_held * (measured.angle() * measured.axis()).cast<double>();
+      const Eigen::Vector3d held =
+          first_view_held * rotation_vector(Eigen::AngleAxisf(misplacement.linear())).cast<double>();
       Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
       for (const Eigen::Vector3f& p : points) centroid += p;
       centroid /= static_cast<float>(points.size());

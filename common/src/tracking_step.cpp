@@ -14,6 +14,9 @@ namespace mfot {
 
 namespace {
 
+// The least pairing distance a config gives ICP (tracker.icp_max_distance's floor in configs/default.yaml).
+constexpr double kMinPairingDistance = 1e-4;
+
 const TrackingStepOptions& validated(const TrackingStepOptions& options) {
   options.validate();
   return options;
@@ -56,6 +59,12 @@ void TrackingStepOptions::validate() const {
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
   icp.validate("TrackingStepOptions.icp");
   require_in_range("TrackingStepOptions", "isolated_icp_max_distance", isolated_icp_max_distance, 0.0, 0.1, false);
+  // Set, it is a pairing distance like icp.max_distance, with the same floor (configs/default.yaml): a tinier one
+  // pairs no point, so ICP would refuse every isolated frame without saying why.
+  if (isolated_icp_max_distance > 0.f) {
+    require_in_range("TrackingStepOptions", "isolated_icp_max_distance (when set)", isolated_icp_max_distance,
+                     kMinPairingDistance, 0.1, false);
+  }
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
         "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
@@ -214,13 +223,9 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
                                      const PoseVector& companion) const {
   // Turns as rotation vectors in the camera frame, composed on the left of the last estimate (apply_increment's
   // convention). Called only with companion_turn_min > 0, so both turns are non-zero past the first test.
-  const auto rotation_vector = [](const Eigen::Quaternionf& rotation) {
-    const Eigen::AngleAxisf turn(rotation);
-    return Eigen::Vector3f(turn.angle() * turn.axis());
-  };
   const Eigen::Quaternionf from_last = last.rotation.conjugate();
-  const Eigen::Vector3f filter_turn = rotation_vector(filtered.rotation * from_last);
-  const Eigen::Vector3f companion_turn = rotation_vector(rotation_from_rpy(companion.tail<3>()));
+  const Eigen::Vector3f filter_turn = rotation_vector(Eigen::AngleAxisf(filtered.rotation * from_last));
+  const Eigen::Vector3f companion_turn = rotation_vector(Eigen::AngleAxisf(rotation_from_rpy(companion.tail<3>())));
   const float filter_angle = filter_turn.norm();
   const float companion_angle = companion_turn.norm();
   if (!(filter_angle >= options_.companion_turn_min && companion_angle >= options_.companion_turn_min)) {
@@ -228,7 +233,8 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
   }
   if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_angle) return false;
   // The share of the filter's turn that the refined estimate kept, along the filter's axis.
-  const float kept = rotation_vector(refined.rotation * from_last).dot(filter_turn) / (filter_angle * filter_angle);
+  const Eigen::Vector3f refined_turn = rotation_vector(Eigen::AngleAxisf(refined.rotation * from_last));
+  const float kept = refined_turn.dot(filter_turn) / (filter_angle * filter_angle);
   return kept < options_.companion_turn_max_kept;
 }
 

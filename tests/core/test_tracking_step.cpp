@@ -844,6 +844,8 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance must be in [0");
   o.isolated_icp_max_distance = std::numeric_limits<float>::quiet_NaN();
   expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance must be in [0");
+  o.isolated_icp_max_distance = 5e-5f;  // set, but below any pairing distance: ICP would pair nothing
+  expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance (when set) must be in [0.0001");
   o.isolated_icp_max_distance = 0.008f;  // unused without follow_isolated, and not refused
   EXPECT_NO_THROW(TrackingStep{o});
   o = occlusion_aware();

@@ -230,6 +230,7 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
       {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
       {"tracker:\n  isolated_icp_max_distance: 0.2\n", "isolated_icp_max_distance"},
       {"tracker:\n  isolated_icp_max_distance: -0.001\n", "isolated_icp_max_distance"},
+      {"tracker:\n  isolated_icp_max_distance: 0.00005\n", "isolated_icp_max_distance"},
       {"tracker:\n  icp_final_points: 2\n", "icp_final_points"},
       {"tracker:\n  icp_anchor_weight: 0.5\n", "icp_anchor_weight"},
       {"tracker:\n  icp_iterations: 3\n  icp_final_iterations: 4\n", "final_iterations"},

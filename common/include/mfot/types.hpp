@@ -47,6 +47,9 @@ struct Pose {
   Pose inverse() const { return from_isometry(isometry().inverse()); }
 };
 
+// A turn as its rotation vector (angle times unit axis, radians): turns compared or projected as vectors.
+inline Eigen::Vector3f rotation_vector(const Eigen::AngleAxisf& turn) { return turn.angle() * turn.axis(); }
+
 // 6-vector pose state (x, y, z, roll, pitch, yaw) used for diffusion and velocity (2.12-2.15).
 using PoseVector = Eigen::Matrix<float, 6, 1>;
 
