@@ -88,7 +88,8 @@ struct TrackingStepOptions {
   // scene points within the pairing distance of the model's rim pair with it and pull the estimate over, and the face
   // then grows at that pose (`spin` seed 117: a face grown 4.4 degrees off). Where a hand is near, the wider pairing
   // holds the hand that carries a hidden box (8 mm everywhere read 10.6-11.2 degrees on `rotate`). Metres, 0 or
-  // [0.0001, 0.1] (the floor of every pairing distance in the config); 0 = icp.max_distance. Used only with follow_isolated (no object is isolated without it).
+  // [0.0001, 0.1] (the floor of every pairing distance in the config); 0 = icp.max_distance. Used only with
+  // follow_isolated (no object is isolated without it).
   float isolated_icp_max_distance = 0.f;
   // The last estimate as a second start (departure from the thesis; README "A partly hidden object kept where
   // it was"). The JCSD score sums the model's density at the scene points, so where part of an object is
