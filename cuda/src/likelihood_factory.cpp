@@ -1,6 +1,8 @@
 // Run-time choice of the likelihood backend: CUDA JCSD (with the CPU JCSD as per-frame fallback),
-// CPU JCSD or the point-to-point baseline. Builds without CUDA compile the same interface and
-// answer every CUDA request with the CPU JCSD and a note saying why.
+// CPU JCSD or the point-to-point baseline. Builds without CUDA compile the same interface.
+// Contract: `auto` takes the GPU when one can start and otherwise the CPU JCSD, with a note saying
+// why; an explicit `cuda` that cannot start (no CUDA in the build, no device, a bad ordinal) throws
+// std::runtime_error naming the reason: a robot configured for the GPU must not run silently slower.
 
 #include "mfot/cuda/likelihood_factory.hpp"
 
@@ -106,6 +108,11 @@ LikelihoodChoice make_likelihood(const LikelihoodOptions& options) {
 #else
   cuda_available(&why);
 #endif
+  if (options.backend == LikelihoodBackend::kCuda) {
+    throw std::runtime_error("likelihood backend 'cuda' requested but CUDA cannot start on device " +
+                             std::to_string(options.cuda_device) + ": " + why +
+                             " (set tracker.backend to auto or cpu to run on the CPU)");
+  }
   return {make_cpu(), "jcsd-cpu", asked + ": CPU JCSD (" + threads + "), CUDA not used: " + why};
 }
 

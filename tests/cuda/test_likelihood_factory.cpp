@@ -72,20 +72,34 @@ TEST(LikelihoodFactory, AutoUsesTheGpuExactlyWhenOneIsAvailable) {
   for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(got[i], expected[i], 1e-4f * expected[i] + 1e-9f);
 }
 
-TEST(LikelihoodFactory, UnusableCudaRequestFallsBackToTheCpuWithTheReason) {
+TEST(LikelihoodFactory, UnusableCudaRequestFailsWithTheReason) {
   LikelihoodOptions options;
   options.backend = LikelihoodBackend::kCuda;
   options.cuda_device = 4096;  // no machine has this device, with or without CUDA
-  LikelihoodChoice choice = make_likelihood(options);
-  EXPECT_EQ(choice.backend, "jcsd-cpu");
-  EXPECT_EQ(choice.likelihood->name(), "jcsd-cpu");
-  EXPECT_NE(choice.note.find("CUDA not used"), std::string::npos) << choice.note;
+  std::string message;
+  try {
+    make_likelihood(options);
+  } catch (const std::runtime_error& error) {
+    message = error.what();
+  }
+  ASSERT_FALSE(message.empty()) << "an explicit cuda backend that cannot start must throw";
+  EXPECT_NE(message.find("'cuda' requested"), std::string::npos) << message;
+  EXPECT_NE(message.find("4096"), std::string::npos) << message;
   std::string why;
   if (cuda_available(&why)) {
-    EXPECT_NE(choice.note.find("invalid device ordinal"), std::string::npos) << choice.note;
+    EXPECT_NE(message.find("invalid device ordinal"), std::string::npos) << message;
   } else {
-    EXPECT_NE(choice.note.find(why), std::string::npos) << choice.note;
+    EXPECT_NE(message.find(why), std::string::npos) << message;
   }
+}
+
+TEST(LikelihoodFactory, UnusableCudaUnderAutoFallsBackToTheCpuWithTheReason) {
+  LikelihoodOptions options;
+  options.backend = LikelihoodBackend::kAuto;
+  options.cuda_device = 4096;
+  LikelihoodChoice choice = make_likelihood(options);
+  EXPECT_EQ(choice.backend, "jcsd-cpu");
+  EXPECT_NE(choice.note.find("CUDA not used"), std::string::npos) << choice.note;
   const RandomScene scene = random_scene(300, 200, 10, 0.01f, 0.1f, 4);
   JcsdLikelihood direct;
   EXPECT_EQ(scores_of(*choice.likelihood, scene), scores_of(direct, scene));

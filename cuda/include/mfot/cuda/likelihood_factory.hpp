@@ -30,8 +30,8 @@ struct LikelihoodChoice {
   std::string note;      // why this backend was chosen (e.g. the CUDA error text on fallback)
 };
 
-// kAuto: CUDA when built with it and a device is present, else CPU JCSD. kCuda falls back to
-// the CPU JCSD with the CUDA error in `note` when no device can be used.
+// kAuto: CUDA when built with it and a device is present, else CPU JCSD (the reason in `note`).
+// kCuda throws std::runtime_error naming the reason when no device can be used.
 LikelihoodChoice make_likelihood(const LikelihoodOptions& options);
 
 // True when this build has CUDA support and a CUDA device is usable; `why` explains a false.
