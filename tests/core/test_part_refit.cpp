@@ -184,7 +184,8 @@ TEST(PartRefit, NothingMovesWithoutTheFirstViewSeenWell) {
 TEST(PartRefit, APartIsNotTurnedAboutAnAxisTheFirstViewDoesNotHold) {
   // The first view shows by its top (+z) alone, and the estimate lags 3 degrees about z: a flat top holds no
   // turn about its normal, so its registration keeps much of the lag, and the grown face, which does hold that
-  // turn, would take it on (the spinning box of `spin`, README "Refit keeps the rotations both views hold").
+  // turn, would take it on (the spinning box of `spin`; docs/experiment-log.md, "Refit keeps the rotations the
+  // first view holds").
   GrownBox box;
   const std::vector<Eigen::Vector3f> scene = box.scene_showing([](const Eigen::Vector3f& local) {
     return GrownBox::on_grown_face(local) || test::face_normal(local, kSize).z() > 0.f;

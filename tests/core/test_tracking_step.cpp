@@ -534,7 +534,7 @@ TEST(TrackingStep, ScoresTheKeptPointsWithTheConfiguredColourFeature) {
 }
 
 // Scores a particle by its closeness to a fixed pose: stands in for the JCSD's mode on a partly hidden still
-// object, which lies off the truth (README "A partly hidden object kept where it was").
+// object, which lies off the truth (docs/departures.md "A partly hidden still object kept where it was").
 class ModeAt final : public Likelihood {
  public:
   explicit ModeAt(const Pose& mode) : mode_(mode) {}

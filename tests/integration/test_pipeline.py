@@ -47,92 +47,57 @@ def results(log: Path, types) -> dict[str, list[bytes]]:
     return out
 
 
-# Segmentation accuracy of the default scenarios in the README's accuracy table (default config, CPU); the
-# CI gates allow half a point below them.
-README_SEGMENTATION = {"stack": 0.9968, "contact": 0.9970, "rotate": 0.9988}
-# The median rotation error of the box the hand grips and turns in `rotate` (README "Measured": 0.27 deg with ICP on
-# 2000 points, 0.45 deg with the box predicted with the hand's motion, 0.52 deg with every estimate refined on the
-# model's surface and the box carried with the hand while hidden, 1.4 deg with isolated objects alone refined, 11 deg
-# on scene seed 3 before the trackers left the points other objects claim out).
-README_ROTATED_BOX_MEDIAN_DEG = 0.27
-# ... and its mean and largest, which the frames hidden behind the hand dominate (1.08 / 6.8 deg with ICP anchored on
-# the first view; 1.00 / 6.2 deg with ICP on 2000 points before: the hand that carries it is followed in roll;
-# 1.68 / 19.5 deg on 200 points, 1.72 / 19.5 with the carry watch over a sliding window, 3.26 / 31.5 deg with the
-# companion's motion and the hold at 20 %, 3.07 / 30.8 deg carried with the hand, 3.61 deg when it waited where it
-# was last seen).
-README_ROTATED_BOX_MEAN_DEG = 1.08
-README_ROTATED_BOX_MAX_DEG = 6.8
-# Hands-free fast turns on the default seeds (README "Seed matrix with isolated objects followed harder"): the
-# turning box's median and largest rotation error, degrees, with grown parts re-fitted on the first view (README "Grown
-# parts re-fitted on the first view"; without: spin 0.83 / 4.3, tumble 1.55 / 10.4) and ICP anchored on the first view
-# (README "Anchored on the first view"; with every model point alike spin 0.99 / 3.5 and tumble 1.47 / 6.4; ICP on 200
-# points: spin 1.38 / 4.6, tumble 1.93 / 7.1; with tracker.follow_isolated: false, the thesis's motion model, spin
-# reads 4.58 / 18.1 and tumble 3.50 / 14.0).
-README_TURNING_BOX_DEG = {"spin": (0.74, 6.0), "tumble": (1.13, 8.2)}
-# `apart` seeds whose first frame's sensor noise joins touching boxes (README "Objects found apart from the first
-# frame"): segmentation of frame 59, after the discovery confirmed over the first frames split them (without it
-# 85.14 % and 64.56 %, three and two objects).
-README_APART_CONFIRMED = {3: 0.9812, 5: 0.9816}
-# `apart` seed 1, frame 39 (README "Point-level boundaries between discovered parts"): the low box's front face, 5 mm
-# behind the tall box's, no longer leaves a strip in the tall box (97.37 % with merger.discovery.boundary_radius 0).
-README_APART_FLUSH_SEAM = {"seed": 1, "frame": 39, "accuracy": 0.9899, "without": 0.9737}
-# `apart` seed 3 whole (README "A part splits off once it departs from the object's motion"): when the hand lets go of
-# the low box its points lie in three clusters (arm, front, box); only the box splits off. Segmentation 99.41 % with
-# grown parts re-fitted on the first view (README "Grown parts re-fitted on the first view"; 99.54 % before, the box
-# gripped away retired; 99.42 % when it waited where it was held; 98.99 % when every part split off), the hand's
-# points under other ids 0.03 % of the scene's (0.54 %).
-README_APART_RELEASED = {"seed": 3, "segmentation": 0.9941, "hand": 101, "hand_elsewhere": 0.0003}
-# `apart` seed 1 whole with merger.carry.gripped_away: carry (README "A box gripped while hidden, carried once its
-# place is seen through"; retire is the default): the low box the hand covers before it grips and lifts it is carried
-# once its place is seen through. Segmentation 99.62 % since the box brought back is found again by registration
-# (README "Touching boxes a step apart"; 99.03 % before; 98.41 % when it waits where it was held, retires and is found
-# again), the low box (ground-truth id 4) estimated in every frame (60 frames without an estimate when it waits) and at
-# most 72.8 mm off (74.3 before; 212.8 mm when it waits; 45.5 mm before ICP was anchored on the first view: the carried
-# box follows the hand's estimate).
-README_APART_CARRIED = {"seed": 1, "gripped_away": "carry", "segmentation": 0.9962, "low_box": 4,
-                        "translation_max_mm": 72.8}
-# The same with the defaults (README "A box gripped away while hidden is retired"): the low box is retired once its place
-# is seen through and found again where the hand puts it down. Segmentation 99.54 %, the low box at most 3.4 deg and
-# 60.5 mm off where published, 93 frames without an estimate (dev machine, 2026-11-27: 99.55 %, 3.5 deg, 44.5 mm, 93
-# frames; 86 frames at an earlier stop; 5.6 deg, 45.6 mm and 93 frames before the last pose check, README "A partly
-# hidden object kept where it was": held where it was while the hand lifts it, it is retired 7 frames later; 24.1 deg
-# and 210.6 mm when it waited where it was held).
-README_APART_GRIPPED_AWAY = {"seed": 1, "segmentation": 0.9954, "low_box": 4, "rotation_max_deg": 3.4,
-                             "translation_max_mm": 60.5, "unestimated_frames": 93}
+# The measured figures the tests gate on (the CI floors) live in docs/results/results.json, with the command, date and
+# machine of each and the story behind it (docs/results.md, rendered by scripts/gen-results). Each floor is its
+# conditions (seed, frames, ground-truth ids, config overrides) and its measured values; the tolerances are the tests'.
+RESULTS_JSON = REPO / "docs" / "results" / "results.json"
 
-# `apart` seed 3 up to frame 340 (README "A partly hidden object kept where it was"): the base box (ground-truth id 2)
-# never moves; while the arm that put the top box down withdraws over it (frames 299-325) its largest rotation and
-# translation errors, degrees and mm, with the last pose check (8.2 deg and 13.7 mm without: the JCSD's mode sinks its
-# visible surface into its hidden side).
-README_STILL_BASE_BOX = {"seed": 3, "frames": 340, "box": 2, "rotation_max_deg": 1.6,
-                         "translation_max_mm": 4.8}
-# README "Measured", "Carried only what moved": `stack` seed 36 up to frame 680, the can behind the stack (ground truth
-# 3, symmetric), still while the arm that lifts the top box creeps over it and hides it: its largest translation and
-# observable rotation errors, mm and degrees (65.8 mm and 22.7 deg when a neighbour that never moved it carried it).
-README_STILL_CAN = {"seed": 36, "frames": 680, "can": 3, "translation_max_mm": 7.6, "observable_rotation_max_deg": 2.8}
-# README "Measured", "A voxel grid that moves every frame": `rotate` seed 50 up to frame 330 with preprocess.voxel_jitter,
-# the box (ground truth 1) that the hand turns from rest at up to 2.5 deg a frame over frames 304-316: its largest
-# rotation error, degrees (14.0 on the fixed grid of the defaults, where ICP held it at the pose its model was sampled
-# at through frames 307-313).
-README_QUICK_TURN = {"seed": 50, "frames": 330, "box": 1, "rotation_max_deg": 5.5,
-                     "preprocess": {"voxel_jitter": True}}
-# README "Measured", "A turn the filter and the companion agree on": the same box and frames on the defaults' fixed grid,
-# where step 5e keeps the filter's turn that the hand's turn agrees with and ICP turned back: its largest rotation
-# error, degrees, and that with the step off (tracker.companion_turn_min_deg: 0; ICP held the box where it was).
-README_QUICK_TURN_FIXED_GRID = {"seed": 50, "frames": 330, "box": 1, "rotation_max_deg": 3.49, "off_max_deg": 13.97}
-# README "Measured", "Confidence that sees through a wrong estimate": `rotate` seed 4 with ICP and the companion pose
-# check off (measured before the check was on), the particles left where the filter's step put them (measured before
-# tracker.particles_follow_refinement, with which the last pose check alone keeps all but 7 frames within 10 deg) and
-# labels propagated into thinly seeded clusters (measured before merger.propagation_min_seed_share 0.1, with which
-# only 27 of its frames are over 10 deg), the confidence's ROC AUC against its frames over 10 deg (0.664 with
-# tracker.confidence_seen_through_weight: 0).
-README_CONFIDENCE_ROTATE = {"seed": 4, "tracker": {"icp_iterations": 0, "companion_pose_check": False,
-                                                   "particles_follow_refinement": 0.0},
-                           "merger": {"propagation_min_seed_share": 0}, "auc": 0.882, "wrong_frames": 375}
-# README "Measured", "Touching boxes a step apart": `apart` learn seed 67's first 40 frames, whose birth joined the low box
-# and the tall box it stands against (its front face 1 cm behind); 2 cm supervoxels let the confirmation split them.
-# Segmentation over those frames (85.35 % and a box lost with 3 cm supervoxels, merger.discovery.seed_resolution 0.03).
-README_APART_STEP = {"seed": 67, "frames": 40, "segmentation": 0.9915}
+
+def load_floors(path: Path = RESULTS_JSON) -> dict[str, object]:
+    """The CI floors of the results file by constant name: a scalar as it is, otherwise conditions and values in one
+    dict (seed keys of `APART_CONFIRMED` as ints, [median, largest] pairs as tuples)."""
+    floors = {}
+    for floor in json.loads(path.read_text(encoding="utf-8"))["ci_floors"]:
+        values = floor["values"]
+        if isinstance(values, dict):
+            values = {**floor["conditions"], **values}
+        floors[floor["const"]] = values
+    floors["APART_CONFIRMED"] = {int(seed): share for seed, share in floors["APART_CONFIRMED"].items()}
+    floors["TURNING_BOX_DEG"] = {scenario: tuple(pair) for scenario, pair in floors["TURNING_BOX_DEG"].items()}
+    return floors
+
+
+FLOORS = load_floors()
+# Segmentation of the default scenarios (default config, CPU); the gates allow half a point below.
+MEASURED_SEGMENTATION = FLOORS["SEGMENTATION"]
+# The box the hand grips and turns in `rotate`: median, mean and largest rotation error, degrees.
+MEASURED_ROTATED_BOX_MEDIAN_DEG = FLOORS["ROTATED_BOX_MEDIAN_DEG"]
+MEASURED_ROTATED_BOX_MEAN_DEG = FLOORS["ROTATED_BOX_MEAN_DEG"]
+MEASURED_ROTATED_BOX_MAX_DEG = FLOORS["ROTATED_BOX_MAX_DEG"]
+# Hands-free fast turns on the default seeds: the turning box's median and largest rotation error, degrees.
+MEASURED_TURNING_BOX_DEG = FLOORS["TURNING_BOX_DEG"]
+# `apart` seeds whose first frame joins touching boxes: segmentation of frame 59, by seed.
+MEASURED_APART_CONFIRMED = FLOORS["APART_CONFIRMED"]
+# `apart` seed 1, frame 39: segmentation with the point-level boundaries between parts, and without.
+MEASURED_APART_FLUSH_SEAM = FLOORS["APART_FLUSH_SEAM"]
+# `apart` seed 3 whole: a released box splits off alone; the hand's points under other ids.
+MEASURED_APART_RELEASED = FLOORS["APART_RELEASED"]
+# `apart` seed 1 whole with merger.carry.gripped_away: carry: the low box carried.
+MEASURED_APART_CARRIED = FLOORS["APART_CARRIED"]
+# The same with the defaults: the low box gripped away while hidden is retired and found again.
+MEASURED_APART_GRIPPED_AWAY = FLOORS["APART_GRIPPED_AWAY"]
+# `apart` seed 3 up to frame 340: the still base box while an arm withdraws over it.
+MEASURED_STILL_BASE_BOX = FLOORS["STILL_BASE_BOX"]
+# `stack` seed 36 up to frame 680: the still can behind the stack while an arm creeps over it.
+MEASURED_STILL_CAN = FLOORS["STILL_CAN"]
+# `rotate` seed 50 up to frame 330 on the moving voxel grid: the box turned quickly from rest.
+MEASURED_QUICK_TURN = FLOORS["QUICK_TURN"]
+# The same on the defaults' fixed grid with step 5e, and with the step off.
+MEASURED_QUICK_TURN_FIXED_GRID = FLOORS["QUICK_TURN_FIXED_GRID"]
+# `rotate` seed 4 with the listed options off: the confidence's ROC AUC against frames over 10 deg.
+MEASURED_CONFIDENCE_ROTATE = FLOORS["CONFIDENCE_ROTATE"]
+# `apart` learn seed 67, first 40 frames: touching boxes a step apart.
+MEASURED_APART_STEP = FLOORS["APART_STEP"]
 
 
 def run_inprocess(tmp: Path, scenario: str, *args: str, config: Path = REPO / "configs/default.yaml") -> dict:
@@ -225,36 +190,36 @@ class PipelineTest(unittest.TestCase):
                 early = [r for r in csv.DictReader(f) if int(r["frame"]) < 60]
             self.assertTrue(early)
             self.assertLess(max(float(r["translation_mm"]) for r in early), 10.0)
-            # The whole run, hands included: within half a point of the README's figure, nothing lost.
-            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["stack"] - 0.005)
+            # The whole run, hands included: within half a point of the measured figure, nothing lost.
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], MEASURED_SEGMENTATION["stack"] - 0.005)
             self.assertEqual(ev["tracks_lost"], 0)
 
     def test_contact_accuracy(self):
-        """The whole `contact` scenario in process: within half a point of the README's figure, nothing lost."""
+        """The whole `contact` scenario in process: within half a point of the measured figure, nothing lost."""
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "contact")
-            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["contact"] - 0.005)
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], MEASURED_SEGMENTATION["contact"] - 0.005)
             self.assertEqual(ev["tracks_lost"], 0)
 
     def test_rotate_accuracy(self):
         """The whole `rotate` scenario in process (a hand grips a box and turns it about each axis): segmentation
-        within half a point of the README's figure, the turned box's median and mean rotation error within a quarter
-        degree of it and its largest within two degrees, nothing lost."""
+        within half a point of the measured figure, the turned box's median and mean rotation error within a
+        quarter degree of it and its largest within two degrees, nothing lost."""
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "rotate")
-            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_SEGMENTATION["rotate"] - 0.005)
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], MEASURED_SEGMENTATION["rotate"] - 0.005)
             self.assertEqual(ev["tracks_lost"], 0)
             box = next(o for o in ev["objects"] if o["groundtruth_id"] == 1)
             self.assertFalse(box["is_hand"])
-            self.assertLessEqual(box["pose_error"]["rotation_median_deg"], README_ROTATED_BOX_MEDIAN_DEG + 0.25)
-            self.assertLessEqual(box["pose_error"]["rotation_mean_deg"], README_ROTATED_BOX_MEAN_DEG + 0.25)
-            self.assertLessEqual(box["pose_error"]["rotation_max_deg"], README_ROTATED_BOX_MAX_DEG + 2.0)
+            self.assertLessEqual(box["pose_error"]["rotation_median_deg"], MEASURED_ROTATED_BOX_MEDIAN_DEG + 0.25)
+            self.assertLessEqual(box["pose_error"]["rotation_mean_deg"], MEASURED_ROTATED_BOX_MEAN_DEG + 0.25)
+            self.assertLessEqual(box["pose_error"]["rotation_max_deg"], MEASURED_ROTATED_BOX_MAX_DEG + 2.0)
 
     def test_fast_turns_accuracy(self):
         """`spin` (a box turning at up to 180 deg/s while it slides) and `tumble` (a box tumbling about two axes) in
-        process, default seeds: the turning box's median rotation error within a quarter degree of the README's
+        process, default seeds: the turning box's median rotation error within a quarter degree of the measured
         figure, its largest within two degrees, nothing lost, every point right."""
-        for scenario, (median, largest) in README_TURNING_BOX_DEG.items():
+        for scenario, (median, largest) in MEASURED_TURNING_BOX_DEG.items():
             with self.subTest(scenario=scenario), tempfile.TemporaryDirectory() as tmp:
                 ev = run_inprocess(Path(tmp), scenario)
                 self.assertEqual(ev["tracks_lost"], 0)
@@ -267,8 +232,8 @@ class PipelineTest(unittest.TestCase):
     def test_touching_boxes_found_apart(self):
         """`apart`'s first two seconds on seeds whose first frame joins touching boxes into one cluster part: by
         frame 59 the discovery, confirmed over the objects' first frames, has split them: four objects, none lost,
-        the frame's segmentation within half a point of the README's figure."""
-        for seed, accuracy in README_APART_CONFIRMED.items():
+        the frame's segmentation within half a point of the measured figure."""
+        for seed, accuracy in MEASURED_APART_CONFIRMED.items():
             with self.subTest(seed=seed), tempfile.TemporaryDirectory() as tmp:
                 ev = run_inprocess(Path(tmp), "apart", "--max-frames", "60", config=seeded_config(Path(tmp), seed))
                 self.assertEqual(ev["tracks_lost"], 0)
@@ -279,9 +244,9 @@ class PipelineTest(unittest.TestCase):
 
     def test_flush_faces_drawn_apart(self):
         """`apart` seed 1's first 40 frames: with the point-level boundaries between discovered parts, frame 39's
-        segmentation is within half a point of the README's figure, and above the figure without them."""
+        segmentation is within half a point of the measured figure, and above the figure without them."""
         import yaml
-        seam = README_APART_FLUSH_SEAM
+        seam = MEASURED_APART_FLUSH_SEAM
         with tempfile.TemporaryDirectory() as tmp:
             config = seeded_config(Path(tmp), seam["seed"])
             ev = run_inprocess(Path(tmp), "apart", "--max-frames", str(seam["frame"] + 1), config=config)
@@ -301,8 +266,8 @@ class PipelineTest(unittest.TestCase):
     def test_a_released_box_splits_off_alone(self):
         """`apart` seed 3 whole: the hand that puts the low box down keeps its front (no part of it under another
         id beyond a tenth of a point of the scene), no object is lost, and the run's segmentation is within 0.1 point
-        of the README's figure."""
-        released = README_APART_RELEASED
+        of the measured figure."""
+        released = MEASURED_APART_RELEASED
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "apart", config=seeded_config(Path(tmp), released["seed"]))
             self.assertEqual(ev["tracks_lost"], 0)
@@ -316,10 +281,10 @@ class PipelineTest(unittest.TestCase):
     def test_a_box_gripped_away_while_hidden_is_retired(self):
         """`apart` seed 1 whole with the defaults: the low box, hidden behind the hand before the hand grips and lifts
         it, is retired once its place is seen through and found again (not lost); where it is published it is within
-        2 deg and 10 mm of the README's largest errors (24.1 deg and 210.6 mm when it waited where it was held), it is
-        without an estimate for at most 10 frames more than the README says, and the run's segmentation is within 0.1
-        point of the README's figure."""
-        gone = README_APART_GRIPPED_AWAY
+        2 deg and 10 mm of the measured largest errors (24.1 deg and 210.6 mm when it waited where it was held), it is
+        without an estimate for at most 10 frames more than measured, and the run's segmentation is within 0.1
+        point of the measured figure."""
+        gone = MEASURED_APART_GRIPPED_AWAY
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "apart", config=seeded_config(Path(tmp), gone["seed"]))
             self.assertEqual(ev["tracks_lost"], 0)
@@ -332,9 +297,9 @@ class PipelineTest(unittest.TestCase):
 
     def test_touching_boxes_a_step_apart_are_found_apart(self):
         """`apart` seed 67's first 40 frames with the defaults: the low box, joined to the tall box at birth, is split
-        off by the confirmation (no object lost) and the segmentation is within 0.1 point of the README's figure
+        off by the confirmation (no object lost) and the segmentation is within 0.1 point of the measured figure
         (85.35 % and a box lost with 3 cm supervoxels, so the test fails with them)."""
-        step = README_APART_STEP
+        step = MEASURED_APART_STEP
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "apart", "--max-frames", str(step["frames"]),
                                config=seeded_config(Path(tmp), step["seed"]))
@@ -344,9 +309,9 @@ class PipelineTest(unittest.TestCase):
 
     def test_a_still_box_stays_put_under_an_arm(self):
         """`apart` seed 3 up to frame 340: the base box, still while an arm withdraws over it and hides up to half of
-        it, stays within 1 deg and 2 mm of the README's largest errors (8.2 deg and 13.7 mm without the last pose
+        it, stays within 1 deg and 2 mm of the measured largest errors (8.2 deg and 13.7 mm without the last pose
         check, so the test fails without it)."""
-        still = README_STILL_BASE_BOX
+        still = MEASURED_STILL_BASE_BOX
         box = seeded_object(still["seed"], "apart", still["frames"], still["box"])
         self.assertFalse(box["lost"])
         self.assertLessEqual(box["pose_error"]["rotation_max_deg"], still["rotation_max_deg"] + 1)
@@ -355,8 +320,8 @@ class PipelineTest(unittest.TestCase):
     def test_a_still_can_stays_put_past_a_creeping_arm(self):
         """`stack` seed 36 up to frame 680: the can behind the stack, which the arm lifting the top box creeps over
         (within the carry window's tolerance) and hides, is not carried off by that arm: its largest errors within 2 mm
-        and 1 deg of the README's (65.8 mm and 22.7 deg with the old carry rule, so the test fails without it)."""
-        still = README_STILL_CAN
+        and 1 deg of the measured (65.8 mm and 22.7 deg with the old carry rule, so the test fails without it)."""
+        still = MEASURED_STILL_CAN
         can = seeded_object(still["seed"], "stack", still["frames"], still["can"])
         self.assertFalse(can["lost"])
         self.assertTrue(can["symmetric"])
@@ -365,9 +330,9 @@ class PipelineTest(unittest.TestCase):
 
     def test_a_box_turned_quickly_from_rest_is_followed(self):
         """`rotate` seed 50 up to frame 330 with a voxel grid drawn per frame: the box the hand starts turning at frame
-        304 is followed through the turn, its largest rotation error within a degree of the README's (14.0 deg on the
+        304 is followed through the turn, its largest rotation error within a degree of the measured (14.0 deg on the
         defaults' fixed grid, so the test fails without the moving grid)."""
-        turn = README_QUICK_TURN
+        turn = MEASURED_QUICK_TURN
         box = seeded_object(turn["seed"], "rotate", turn["frames"], turn["box"], preprocess=turn["preprocess"])
         self.assertFalse(box["lost"])
         self.assertFalse(box["symmetric"])
@@ -375,9 +340,9 @@ class PipelineTest(unittest.TestCase):
 
     def test_a_box_turned_quickly_from_rest_is_followed_on_the_fixed_grid(self):
         """The same turn on the defaults' fixed grid: the gripped box keeps the filter's turn where the hand turns the same
-        way and ICP turned it back, so its largest rotation error is within a degree of the README's 3.49 deg; with that
-        step off it is over 10 deg (13.97 in the README), so the test fails without the step."""
-        turn = README_QUICK_TURN_FIXED_GRID
+        way and ICP turned it back, so its largest rotation error is within a degree of the measured 3.49 deg; with that
+        step off it is over 10 deg (13.97 measured), so the test fails without the step."""
+        turn = MEASURED_QUICK_TURN_FIXED_GRID
         box = seeded_object(turn["seed"], "rotate", turn["frames"], turn["box"])
         self.assertFalse(box["lost"])
         self.assertLessEqual(box["pose_error"]["rotation_max_deg"], turn["rotation_max_deg"] + 1)
@@ -389,9 +354,9 @@ class PipelineTest(unittest.TestCase):
         """`rotate` seed 4 with ICP off (and the companion pose check, which without ICP still keeps the gripped box
         where the hand takes it, the particles following the last pose check, and the propagation guard), so that its
         gripped box is over 10 deg off in hundreds of frames: the ROC AUC of the published confidence against those
-        frames is within 0.03 of the README's 0.882 (0.664 from the fit alone, so the test fails without the
+        frames is within 0.03 of the measured 0.882 (0.664 from the fit alone, so the test fails without the
         seen-through share)."""
-        want = README_CONFIDENCE_ROTATE
+        want = MEASURED_CONFIDENCE_ROTATE
         matrix = load_script(REPO / "scripts/seed-matrix", "seed_matrix")  # its ROC of the confidence
         with tempfile.TemporaryDirectory() as tmp:
             ev = run_inprocess(Path(tmp), "rotate", config=seeded_config(Path(tmp), want["seed"], tracker=want["tracker"],
@@ -407,17 +372,18 @@ class PipelineTest(unittest.TestCase):
 
     def test_a_box_gripped_while_hidden_is_carried(self):
         """`apart` seed 1 whole with merger.carry.gripped_away: carry: the low box, hidden behind the hand before the
-        hand grips and lifts it, is estimated in every frame (carried, not retired), within 10 mm of the README's
-        largest translation error, and the run's segmentation is within 0.1 point of the README's figure."""
+        hand grips and lifts it, is estimated in every frame (carried, not retired), within 10 mm of the measured
+        largest translation error, and the run's segmentation is within 0.1 point of the measured figure."""
         with tempfile.TemporaryDirectory() as tmp:
-            config = seeded_config(Path(tmp), README_APART_CARRIED["seed"], README_APART_CARRIED["gripped_away"])
+            config = seeded_config(Path(tmp), MEASURED_APART_CARRIED["seed"], MEASURED_APART_CARRIED["gripped_away"])
             ev = run_inprocess(Path(tmp), "apart", config=config)
             print(json.dumps({k: ev[k] for k in ("segmentation", "pose_error", "tracks_lost")}, indent=1))
-            self.assertGreaterEqual(ev["segmentation"]["accuracy"], README_APART_CARRIED["segmentation"] - 0.001)
-            box = next(o for o in ev["objects"] if o["groundtruth_id"] == README_APART_CARRIED["low_box"])
+            self.assertGreaterEqual(ev["segmentation"]["accuracy"], MEASURED_APART_CARRIED["segmentation"] - 0.001)
+            box = next(o for o in ev["objects"] if o["groundtruth_id"] == MEASURED_APART_CARRIED["low_box"])
             self.assertFalse(box["lost"])
             self.assertEqual(box["compared_frames"], box["groundtruth_last_frame"] - box["groundtruth_first_frame"] + 1)
-            self.assertLessEqual(box["pose_error"]["translation_max_mm"], README_APART_CARRIED["translation_max_mm"] + 10)
+            self.assertLessEqual(box["pose_error"]["translation_max_mm"],
+                                 MEASURED_APART_CARRIED["translation_max_mm"] + 10)
 
     def test_inprocess_static_scene(self):
         """The in-process pipeline (no LCM) finds and holds the three objects of the static scene."""

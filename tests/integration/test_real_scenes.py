@@ -1,6 +1,6 @@
 """Object discovery on real Kinect/Xtion table tops: the mOSD learn scenes in tests/data/mosd (stacked,
 touching and occluded objects) through scripts/bench-mosd (mfot's preprocessing and first-frame objects with
-the default config). The README's learn-split figures are guarded here: every ground-truth object found
+the default config). The learn-split figures of docs/results.md are guarded here: every ground-truth object found
 (IoU >= 0.5) and at most 0.2 spurious objects per scene."""
 
 import json
