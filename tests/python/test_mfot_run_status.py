@@ -155,6 +155,74 @@ class RunSummaryTest(unittest.TestCase):
         self.assertIn("no frame got poses", problems)
 
 
+def alive(pid: int) -> bool:
+    """True while `pid` runs (a zombie counts as gone)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def wait_for(condition, timeout: float = 10.0) -> bool:
+    import time  # noqa: PLC0415
+
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+class ServiceLifetimeTest(unittest.TestCase):
+    """No service outlives mfot-run: stop() ends a service's whole process group, and a service gets
+    SIGTERM when mfot-run itself is killed."""
+
+    def setUp(self):
+        import tempfile  # noqa: PLC0415
+
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        self.dir = Path(self.tmp.name)
+
+    def pids_in(self, log: Path, count: int) -> list[int]:
+        self.assertTrue(wait_for(lambda: log.is_file() and len(log.read_text().split()) >= count), "no pids written")
+        return [int(p) for p in log.read_text().split()[:count]]
+
+    def test_stop_ends_what_a_service_started_too(self):
+        log = self.dir / "svc.log"
+        svc = mfot_run.Service("svc", ["sh", "-c", "sleep 60 & echo $!; echo $$; wait"], log)
+        svc.start()
+        child, shell = self.pids_in(log, 2)
+        self.assertTrue(alive(child) and alive(shell))
+        svc.stop(timeout=5.0)
+        self.assertTrue(wait_for(lambda: not alive(child)), "the service's own child outlived stop()")
+        self.assertFalse(alive(shell))
+        svc.stop()  # a second stop signals nothing
+
+    def test_services_end_when_mfot_run_is_killed(self):
+        import signal  # noqa: PLC0415
+        import subprocess  # noqa: PLC0415
+
+        log = self.dir / "sleeper.log"
+        parent = subprocess.Popen([sys.executable, "-c", f"""
+import sys, time
+sys.path.insert(0, {str(REPO / 'scripts')!r})
+from pathlib import Path
+from mfot_script_module import load_script
+m = load_script(Path({str(REPO / 'scripts' / 'mfot-run')!r}), 'mfot_run')
+m.Service('sleeper', ['sh', '-c', 'echo $$; exec sleep 60'], Path({str(log)!r})).start()
+time.sleep(60)
+"""])
+        self.addCleanup(parent.wait)
+        self.addCleanup(parent.kill)
+        (service,) = self.pids_in(log, 1)
+        self.assertTrue(alive(service))
+        parent.send_signal(signal.SIGKILL)  # no finally runs in mfot-run
+        parent.wait()
+        self.assertTrue(wait_for(lambda: not alive(service)), "a service outlived a killed mfot-run")
+
+
 if __name__ == "__main__":
     unittest.main()
 

@@ -26,7 +26,13 @@ std::optional<SourceFrame> LcmLogSource::next() {
     } catch (const service::LcmLogError& e) {
       throw CaptureError(fmt::format("{} ({} frames read before it)", e.what(), index_));
     }
-    if (!event) return std::nullopt;
+    if (!event) {
+      if (undecodable_ > 0) {
+        spdlog::warn("{}: {} MFOT_FRAME events did not decode and were skipped; {} frames read", path_, undecodable_,
+                     index_);
+      }
+      return std::nullopt;
+    }
     if (event->channel != service::channel::kFrame) continue;
     const lcm::ReceiveBuffer buffer{event->data.data(), static_cast<std::uint32_t>(event->data.size()), event->utime};
     SourceFrame item;
