@@ -64,18 +64,22 @@ class IoErrorTest(unittest.TestCase):
         self.tmp = Path(tempfile.mkdtemp(prefix="mfot_io_errors_"))
         self.addCleanup(shutil.rmtree, self.tmp, True)
 
-    def test_a_full_disk_stops_the_whole_group_with_the_path(self):
+    def mount_small_disk(self, where: Path, size: str) -> Path:
+        """A tmpfs of `size` at `where`, unmounted after the test; skips the test when it cannot be mounted."""
         if os.geteuid() != 0:
             self.skipTest("mounting a small tmpfs needs root")
-        if not shutil.which("lcm-logger"):
-            self.skipTest("lcm-logger is not installed")
-        disk = self.tmp / "disk"
-        disk.mkdir()
-        mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)], capture_output=True,
-                                 text=True)
+        where.mkdir(parents=True)
+        mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
+                                 capture_output=True, text=True)
         if mounted.returncode != 0:
             self.skipTest(f"cannot mount a tmpfs: {mounted.stderr.strip()}")
-        self.addCleanup(subprocess.run, ["umount", "-l", str(disk)], capture_output=True)
+        self.addCleanup(subprocess.run, ["umount", "-l", str(where)], capture_output=True)
+        return where
+
+    def test_a_full_disk_stops_the_whole_group_with_the_path(self):
+        if not shutil.which("lcm-logger"):
+            self.skipTest("lcm-logger is not installed")
+        disk = self.mount_small_disk(self.tmp / "disk", "2m")
         run = disk / "run"
         res = run_group(run, "--scenario", "stack", "--max-frames", "100")
         said = explain(res, run)
@@ -96,6 +100,20 @@ class IoErrorTest(unittest.TestCase):
             self.assertRegex(str(e), r"at byte \d+", said)
         self.assertIn("MFOT_STATUS", events, said)
         self.assertTrue((run / "poses.csv").read_text().startswith("frame,utime,object_id"), said)
+
+    def test_a_merger_that_cannot_write_a_label_image_stops_the_group(self):
+        """Only the label images' folder is full (a 64 KiB tmpfs): the merger exits with 3 naming the image
+        and the system's reason, mfot-run does not restart it and stops the group; the log is whole."""
+        run = self.tmp / "labels-full"
+        labels = self.mount_small_disk(run / "labels", "64k")
+        res = run_group(run, "--scenario", "stack", "--max-frames", "100")
+        said = explain(res, run)
+        self.assertEqual(res.returncode, 1, said)
+        self.assertRegex(res.stdout, rf"error: merger cannot write its output: {labels}/\d{{6}}\.png\.tmp: cannot write PNG: "
+                                     r"[^\n]*No space left on device[^\n]*; stopping the process group", said)
+        self.assertNotIn("restarting", res.stdout, said)
+        self.assertEqual(processes_mentioning(str(run)), [], said)
+        self.assertGreater(len(list(mfot_lcm.read_log(run / "mfot.lcmlog"))), 0, said)  # reads to its end
 
     def test_a_replay_of_a_foreign_file_says_it_is_not_an_lcm_log(self):
         run = self.tmp / "foreign"
