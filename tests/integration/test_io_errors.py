@@ -4,6 +4,8 @@
 - a disk that fills up while recording (a 2 MB tmpfs as the run folder; needs root and mount, else
   skipped with the reason): mfot-run names the path and the system's reason, stops the whole group
   (no process of it is left) and exits non-zero; what was recorded before still reads;
+- a full label folder only (a 64 KiB tmpfs): the merger exits with 3 naming the image, is not restarted,
+  and the group stops;
 - a replay of a file that is not an LCM log, and of a truncated one: the group fails with the reason
   (the byte offset of the broken event) instead of "0 frames published".
 
