@@ -4,6 +4,7 @@
 - a disk that fills up while recording (a 2 MB tmpfs as the run folder; needs root and mount, else
   skipped with the reason): mfot-run names the path and the system's reason, stops the whole group
   (no process of it is left) and exits non-zero; what was recorded before still reads;
+- processes.json that cannot be written (/dev/full): the group is stopped, nothing crashes;
 - a full label folder only (a 64 KiB tmpfs): the merger exits with 3 naming the image, is not restarted,
   and the group stops;
 - a replay of a file that is not an LCM log, and of a truncated one: the group fails with the reason
@@ -116,6 +117,22 @@ class IoErrorTest(unittest.TestCase):
         self.assertNotIn("restarting", res.stdout, said)
         self.assertEqual(processes_mentioning(str(run)), [], said)
         self.assertGreater(len(list(mfot_lcm.read_log(run / "mfot.lcmlog"))), 0, said)  # reads to its end
+
+    def test_an_unwritable_processes_json_stops_the_group(self):
+        """processes.json cannot be written (its temporary file is /dev/full: ENOSPC on every write): mfot-run
+        names the file and the reason, stops the services it started and exits 1 instead of crashing."""
+        if not Path("/dev/full").exists():
+            self.skipTest("/dev/full is missing")
+        run = self.tmp / "pids-full"
+        run.mkdir()
+        (run / "processes.json.tmp").symlink_to("/dev/full")
+        res = run_group(run, "--scenario", "stack", "--max-frames", "100")
+        said = explain(res, run)
+        self.assertEqual(res.returncode, 1, said)
+        self.assertRegex(res.stdout, rf"error: cannot write {run}/processes.json.tmp: No space left on device; "
+                                     r"stopping the process group", said)
+        self.assertNotIn("Traceback", res.stdout + res.stderr, said)
+        self.assertEqual(processes_mentioning(str(run)), [], said)
 
     def test_a_replay_of_a_foreign_file_says_it_is_not_an_lcm_log(self):
         run = self.tmp / "foreign"
