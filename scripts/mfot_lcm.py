@@ -272,36 +272,81 @@ class LogEvent:
 
 
 def read_log(path: str | os.PathLike, live: bool = False) -> Iterator[LogEvent]:
-    """Yields the events of an LCM log file; a corrupt or truncated event raises LcmError naming
-    the file and byte offset. With live=True a truncated last event (one lcm-logger is still
-    writing) ends the iteration instead."""
+    """Yields the events of an LCM log file. Every header is checked before its event is read: the
+    sync word, a channel length in [1, MAX_LOG_CHANNEL_BYTES], a data length in [0, _MAX_MESSAGE_SIZE],
+    both against the bytes left in the file. A file that is empty or does not start with the sync word
+    raises LcmError "... not an LCM log"; a corrupt or truncated event raises LcmError naming the file
+    and the event's byte offset (LcmLogError, with .offset). With live=True (a log lcm-logger is still
+    writing) an empty file or a truncated last event ends the iteration instead."""
     with open(path, "rb") as f:
         yield from _read_events(f, str(path), live)
 
 
+class LcmLogError(LcmError):
+    """A log that is not an LCM log, or an event in it that is truncated or corrupt; offset: its byte."""
+
+    def __init__(self, message: str, offset: int):
+        super().__init__(message)
+        self.offset = offset
+
+
+# LCM 1.3's own reader asserts a channel length under 1000 bytes.
+MAX_LOG_CHANNEL_BYTES = 999
+_LOG_EVENT_HEADER = struct.Struct(">Iqqii")
+
+
 def _read_events(f: BinaryIO, name: str, live: bool) -> Iterator[LogEvent]:
+    size = os.fstat(f.fileno()).st_size
+    if size == 0 and not live:
+        raise LcmLogError(f"{name} is empty (0 bytes): not an LCM log", 0)
     offset = 0
+
+    def fail(what: str) -> LcmLogError:
+        return LcmLogError(f"{name} at byte {offset} of {size}: {what}", offset)
+
     while True:
-        header = f.read(_LOG_HEADER.size)
-        if not header:
+        if size - offset < _LOG_EVENT_HEADER.size:
+            size = os.fstat(f.fileno()).st_size  # a live log may have grown
+        left = size - offset
+        if left == 0:
             return
-        if len(header) < _LOG_HEADER.size:
+        if left < _LOG_EVENT_HEADER.size:
             if live:
                 return
-            raise LcmError(f"{name}: truncated event header at byte {offset}")
-        sync, number, utime, channel_len, data_len = _LOG_HEADER.unpack(header)
+            if offset == 0:
+                raise LcmLogError(f"{name}: {left} bytes, too short for an event: not an LCM log", 0)
+            raise fail(f"truncated event header: {left} of {_LOG_EVENT_HEADER.size} bytes")
+        header = f.read(_LOG_EVENT_HEADER.size)
+        if len(header) < _LOG_EVENT_HEADER.size:  # shrank under us
+            if live:
+                return
+            raise fail(f"truncated event header: {len(header)} of {_LOG_EVENT_HEADER.size} bytes")
+        sync, number, utime, channel_len, data_len = _LOG_EVENT_HEADER.unpack(header)
         if sync != LOG_SYNC:
-            raise LcmError(f"{name}: bad sync word 0x{sync:08x} at byte {offset}")
-        if channel_len > 4096 or data_len > _MAX_MESSAGE_SIZE:
-            raise LcmError(f"{name}: implausible event sizes (channel {channel_len}, data {data_len}) "
-                           f"at byte {offset}")
-        body = f.read(channel_len + data_len)
-        if len(body) < channel_len + data_len:
+            if offset == 0:
+                raise LcmLogError(f"{name}: starts with 0x{sync:08x}, not the LCM log sync word 0x{LOG_SYNC:08x}: "
+                                  "not an LCM log", 0)
+            raise fail(f"bad sync word 0x{sync:08x} (not 0x{LOG_SYNC:08x})")
+        if not 1 <= channel_len <= MAX_LOG_CHANNEL_BYTES:
+            raise fail(f"event {number}: channel length {channel_len} is out of range [1, {MAX_LOG_CHANNEL_BYTES}]")
+        if not 0 <= data_len <= _MAX_MESSAGE_SIZE:
+            raise fail(f"event {number}: data length {data_len} is out of range [0, {_MAX_MESSAGE_SIZE}]")
+        body = channel_len + data_len
+        if body > left - _LOG_EVENT_HEADER.size:
+            size = os.fstat(f.fileno()).st_size
+            left = size - offset
+        if body > left - _LOG_EVENT_HEADER.size:
             if live:
                 return
-            raise LcmError(f"{name}: truncated event {number} at byte {offset}")
-        yield LogEvent(number, utime, body[:channel_len].decode("utf-8", "replace"), body[channel_len:])
-        offset += _LOG_HEADER.size + channel_len + data_len
+            raise fail(f"event {number} is truncated: it needs {_LOG_EVENT_HEADER.size + body} bytes, "
+                       f"the file has {left} left")
+        data = f.read(body)
+        if len(data) < body:
+            if live:
+                return
+            raise fail(f"event {number} is truncated: the file ends inside it")
+        yield LogEvent(number, utime, data[:channel_len].decode("utf-8", "replace"), data[channel_len:])
+        offset += _LOG_EVENT_HEADER.size + body
 
 
 def write_log(path: str | os.PathLike, events: Iterable[Tuple[int, str, bytes]]) -> int:

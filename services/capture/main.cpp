@@ -14,6 +14,7 @@
 #include "mfot/capture/capture_settings.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/service_main.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -105,6 +106,9 @@ int main(int argc, char** argv) {
   } catch (const ConfigError& e) {
     spdlog::error("configuration refused: {}", e.what());
     return 2;
+  } catch (const mfot::service::OutputError& e) {
+    spdlog::error("output failed: {}", e.what());
+    return mfot::service::kExitOutputFailed;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -15,6 +15,7 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/image_io.hpp"
+#include "mfot/service/lcm_log_reader.hpp"
 #include "mfot/service/run_writer.hpp"
 
 #include "bench_timing.hpp"
@@ -46,15 +47,15 @@ struct Recorded {
 };
 
 template <class Message>
-bool decode_event(const lcm::LogEvent& event, Message& out) {
-  return out.decode(event.data, 0, event.datalen) == event.datalen;
+bool decode_event(const mfot::service::LcmLogEvent& event, Message& out) {
+  const auto size = static_cast<int>(event.data.size());
+  return out.decode(event.data.data(), 0, size) == size;
 }
 
 Recorded read_log(const std::string& path, std::size_t max_frames) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw std::runtime_error(path + ": cannot open");
+  mfot::service::LcmLogReader log(path);  // throws naming the path and byte offset of a broken log
   Recorded r;
-  while (const lcm::LogEvent* event = log.readNextEvent()) {
+  while (const auto event = log.next()) {
     if (event->channel == "MFOT_FRAME" && r.frames.size() < max_frames) {
       mfot::frame_t m;
       if (decode_event(*event, m)) r.frames[m.seq] = std::move(m);

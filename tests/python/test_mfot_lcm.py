@@ -157,17 +157,78 @@ class CInteropTest(unittest.TestCase):
         self.assertEqual(received.get("BIG"), big)
         self.assertEqual(self.mfot.poses_t.decode(received["MFOT_POSES"]).frame_seq, 7)
 
-    def test_corrupt_logs_name_the_offset(self):
-        log = Path(self.tmp.name) / "bad.lcmlog"
-        mfot_lcm.write_log(log, [(1, "A", b"12345"), (2, "B", b"678")])
-        data = log.read_bytes()
-        log.write_bytes(data[:-2])
-        with self.assertRaisesRegex(mfot_lcm.LcmError, r"truncated event 1 at byte 34"):
-            list(mfot_lcm.read_log(log))
-        self.assertEqual([e.channel for e in mfot_lcm.read_log(log, live=True)], ["A"])
-        log.write_bytes(data[:34] + b"\x00" + data[35:])
-        with self.assertRaisesRegex(mfot_lcm.LcmError, r"bad sync word .* at byte 34"):
-            list(mfot_lcm.read_log(log))
+class LogReaderTest(unittest.TestCase):
+    """read_log: every broken log is reported with its byte offset, a foreign file as not an LCM log,
+    and no header value is trusted before it is checked against the file."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        self.log = Path(self.tmp.name) / "test.lcmlog"
+        mfot_lcm.write_log(self.log, [(1, "A", b"12345"), (2, "B", b"678")])  # events at bytes 0 and 34
+        self.good = self.log.read_bytes()
+
+    def error(self, data: bytes, live: bool = False) -> mfot_lcm.LcmLogError:
+        self.log.write_bytes(data)
+        with self.assertRaises(mfot_lcm.LcmLogError) as caught:
+            list(mfot_lcm.read_log(self.log, live=live))
+        return caught.exception
+
+    @staticmethod
+    def header(number=1, channel_len=1, data_len=3, sync=mfot_lcm.LOG_SYNC):
+        return struct.pack(">Iqqii", sync, number, 2, channel_len, data_len)
+
+    def test_a_good_log_reads_back(self):
+        events = list(mfot_lcm.read_log(self.log))
+        self.assertEqual([(e.event_number, e.utime, e.channel, e.data) for e in events],
+                         [(0, 1, "A", b"12345"), (1, 2, "B", b"678")])
+
+    def test_truncated_mid_header(self):
+        e = self.error(self.good[:34 + 10])
+        self.assertEqual(e.offset, 34)
+        self.assertRegex(str(e), r"test.lcmlog at byte 34 of 44: truncated event header: 10 of 28 bytes")
+        self.assertEqual([ev.channel for ev in mfot_lcm.read_log(self.log, live=True)], ["A"])
+
+    def test_truncated_mid_payload(self):
+        e = self.error(self.good[:-2])
+        self.assertEqual(e.offset, 34)
+        self.assertRegex(str(e), r"at byte 34 of 64: event 1 is truncated: it needs 32 bytes, the file has 30 left")
+        self.assertEqual([ev.channel for ev in mfot_lcm.read_log(self.log, live=True)], ["A"])
+
+    def test_bad_sync_word(self):
+        e = self.error(self.good[:34] + b"\x00" + self.good[35:])
+        self.assertEqual(e.offset, 34)
+        self.assertRegex(str(e), r"at byte 34 of 66: bad sync word 0x00a1da01")
+        # Also while live: a corrupt event is not the end of a log being written.
+        self.assertEqual(self.error(self.good[:34] + b"\x00" + self.good[35:], live=True).offset, 34)
+
+    def test_huge_data_length(self):
+        e = self.error(self.good[:34] + self.header(data_len=0x7FFFFFFF) + b"B678")
+        self.assertEqual(e.offset, 34)
+        self.assertRegex(str(e), r"event 1: data length 2147483647 is out of range \[0, 268435456\]")
+        self.assertRegex(str(self.error(self.good[:34] + self.header(data_len=-5) + b"B678")),
+                         r"data length -5 is out of range")
+        # Plausible, but more than the file holds: truncated, read without allocating it.
+        self.assertRegex(str(self.error(self.good[:34] + self.header(data_len=100_000_000) + b"B678")),
+                         r"event 1 is truncated: it needs 100000029 bytes, the file has 32 left")
+
+    def test_huge_channel_length(self):
+        e = self.error(self.good[:34] + self.header(channel_len=0x7FFFFFFF) + b"B678")
+        self.assertEqual(e.offset, 34)
+        self.assertRegex(str(e), r"event 1: channel length 2147483647 is out of range \[1, 999\]")
+        self.assertRegex(str(self.error(self.good[:34] + self.header(channel_len=0) + b"678")),
+                         r"channel length 0 is out of range")
+
+    def test_empty_file(self):
+        e = self.error(b"")
+        self.assertEqual(e.offset, 0)
+        self.assertRegex(str(e), r"test.lcmlog is empty \(0 bytes\): not an LCM log")
+        self.assertEqual(list(mfot_lcm.read_log(self.log, live=True)), [])  # lcm-logger has not written yet
+
+    def test_foreign_file(self):
+        self.assertRegex(str(self.error(Path(sys.executable).read_bytes()[:4096])),
+                         r"starts with 0x7f454c46, not the LCM log sync word 0xeda1da01: not an LCM log")
+        self.assertRegex(str(self.error(b"\xed\xa1")), r"2 bytes, too short for an event: not an LCM log")
 
 
 class PoseClientTest(unittest.TestCase):

@@ -258,7 +258,7 @@ class CommandTest(unittest.TestCase):
         cases.append(((self.tmp / "missing.lcmlog",), "no such log file or run folder"))
         garbled = self.tmp / "garbled.lcmlog"
         garbled.write_bytes(b"this is not an lcm log at all" * 10)
-        cases.append(((garbled,), "the log does not read: .*bad sync word"))
+        cases.append(((garbled,), "the log does not read: .*not an LCM log"))
         truncated = self.tmp / "truncated.lcmlog"
         vs.write_log(self.types, truncated, frames=1)
         truncated.write_bytes(truncated.read_bytes()[:-10])

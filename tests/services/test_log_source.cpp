@@ -109,6 +109,34 @@ TEST(LcmLogSource, RefusesAFileThatIsNotThere) {
   }
 }
 
+TEST(LcmLogSource, ATruncatedLogFailsWithTheByteOffsetAfterItsFrames) {
+  LogFile file;
+  const Bytes first = encode(small_frame(0));
+  file.write({{service::channel::kFrame, first}, {service::channel::kFrame, encode(small_frame(1))}});
+  const auto whole = fs::file_size(file.str());
+  fs::resize_file(file.str(), whole - 3);  // ends inside the second event
+  LcmLogSource source(file.str());
+  ASSERT_TRUE(source.next());
+  try {
+    source.next();
+    FAIL() << "a truncated event read as the end of the log";
+  } catch (const CaptureError& e) {
+    const std::string offset = "at byte " + std::to_string(28 + 10 + first.size());
+    EXPECT_NE(std::string(e.what()).find(offset), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("1 frames read before it"), std::string::npos) << e.what();
+  }
+}
+
+TEST(LcmLogSource, RefusesAForeignFileAsNotAnLcmLog) {
+  try {
+    LcmLogSource source("/bin/ls");
+    FAIL() << "opened /bin/ls as a log";
+  } catch (const CaptureError& e) {
+    EXPECT_NE(std::string(e.what()).find("/bin/ls: starts with 0x7f454c46"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not an LCM log"), std::string::npos) << e.what();
+  }
+}
+
 // Frames 0..count-1 as decoded images (the reader encodes them), or pre-encoded; throws at `fail_at`.
 class ScriptedSource final : public FrameSource {
  public:

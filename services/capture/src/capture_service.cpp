@@ -5,6 +5,7 @@
 #include "mfot/poses_t.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/service_main.hpp"
 #include "mfot/service/status.hpp"
 #include "mfot/service/tum_dataset.hpp"
 
@@ -164,7 +165,11 @@ class CaptureService {
     service::GroundTruthFrame truth = *item.truth;
     truth.frame = seq_;
     truth.utime = item.frame.capture_utime;
-    truth_writer_->write(truth);
+    try {
+      truth_writer_->write(truth);
+    } catch (const service::DatasetError& e) {
+      throw service::OutputError(e.what());  // the path and the system's reason; exit 3
+    }
   }
 
   // Serves LCM and status until `due`; false when a stop was requested.

@@ -9,24 +9,38 @@ namespace mfot::capture {
 LcmLogSource::LcmLogSource(std::string path) : path_(std::move(path)) { open(); }
 
 void LcmLogSource::open() {
-  log_ = std::make_unique<lcm::LogFile>(path_, "r");
-  if (!log_->good()) throw CaptureError(path_ + ": cannot open the lcm log");
+  try {
+    log_ = std::make_unique<service::LcmLogReader>(path_);
+  } catch (const service::LcmLogError& e) {
+    throw CaptureError(e.what());
+  }
   index_ = 0;
 }
 
 std::optional<SourceFrame> LcmLogSource::next() {
   service::MalformedCounter malformed;  // logs the first of each kind; the count is ours
   for (;;) {
-    const lcm::LogEvent* event = log_->readNextEvent();
-    if (event == nullptr) return std::nullopt;
+    std::optional<service::LcmLogEvent> event;
+    try {
+      event = log_->next();
+    } catch (const service::LcmLogError& e) {
+      throw CaptureError(fmt::format("{} ({} frames read before it)", e.what(), index_));
+    }
+    if (!event) {
+      if (undecodable_ > 0) {
+        spdlog::warn("{}: {} MFOT_FRAME events did not decode and were skipped; {} frames read", path_, undecodable_,
+                     index_);
+      }
+      return std::nullopt;
+    }
     if (event->channel != service::channel::kFrame) continue;
-    const lcm::ReceiveBuffer buffer{event->data, static_cast<std::uint32_t>(event->datalen), event->timestamp};
+    const lcm::ReceiveBuffer buffer{event->data.data(), static_cast<std::uint32_t>(event->data.size()), event->utime};
     SourceFrame item;
     frame_t message;
-    if (event->datalen < 0 || !service::decode_message(&buffer, event->channel, message, malformed)) {
+    if (!service::decode_message(&buffer, event->channel, message, malformed)) {
       ++undecodable_;
-      spdlog::warn("{}: event {} on {} does not decode as frame_t; skipped ({} so far)", path_, event->eventnum,
-                   event->channel, undecodable_);
+      spdlog::warn("{}: event {} at byte {} on {} does not decode as frame_t; skipped ({} so far)", path_,
+                   event->event_number, event->offset, event->channel, undecodable_);
       continue;
     }
     item.index = index_++;

@@ -271,14 +271,21 @@ void write_file(const std::string& path, const Image& image, PixelLayout layout,
   if (file.get() == nullptr) throw ImageIoError(path + ": cannot create: " + errno_text());
   PngContext context;
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
+  errno = 0;
   const bool encoded = encode_png(context, file.get(), layout, image.width, image.height,
                                   reinterpret_cast<const std::uint8_t*>(image.pixels.data()),
                                   compression == PngCompression::kFast ? 1 : 6, compression == PngCompression::kSmall,
                                   rows);
+  const int write_errno = errno;  // of the failed write inside libpng, if any
+  errno = 0;
   const bool closed = file.close();
+  const int close_errno = errno != 0 ? errno : write_errno;
   if (!encoded || !closed) {
     std::remove(path.c_str());
-    throw ImageIoError(path + ": cannot write PNG: " + (encoded ? errno_text() : std::string(context.message)));
+    // libpng says only "Write Error" when a write fails: the system's reason is errno's.
+    std::string why = encoded ? std::string(std::strerror(close_errno)) : std::string(context.message);
+    if (!encoded && write_errno != 0) why += std::string(" (") + std::strerror(write_errno) + ")";
+    throw ImageIoError(path + ": cannot write PNG: " + why);
   }
 }
 

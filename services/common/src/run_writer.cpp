@@ -1,8 +1,12 @@
 #include "mfot/service/run_writer.hpp"
 
+#include "mfot/service/service_main.hpp"
+
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
@@ -15,10 +19,18 @@ namespace {
 std::ofstream open_csv(const std::string& path, const char* header, bool append) {
   std::error_code ec;
   const bool continued = append && std::filesystem::file_size(path, ec) > 0 && !ec;
+  errno = 0;
   std::ofstream out(path, std::ios::out | (continued ? std::ios::app : std::ios::trunc));
-  if (!out) throw std::runtime_error(path + ": cannot create file");
+  if (!out) throw OutputError(path + ": cannot create: " + (errno != 0 ? std::strerror(errno) : "unknown error"));
   if (!continued) out << header << '\n';
   return out;
+}
+
+// A stream that failed lost bytes on their way to `path`: an error naming it and the system's reason
+// (errno of the failed write, e.g. "No space left on device").
+void check_stream(const std::ofstream& out, const std::string& path, int saved_errno) {
+  if (out.good()) return;
+  throw OutputError(path + ": cannot write: " + (saved_errno != 0 ? std::strerror(saved_errno) : "stream error"));
 }
 
 // A voxel's cell index on one axis, offset so that cells within 2^20 voxels of the origin are
@@ -71,7 +83,7 @@ class VoxelLabels {
 RunWriter::RunWriter(const std::string& dir, bool append) : dir_(dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir_ + "/labels", ec);
-  if (ec) throw std::runtime_error(dir_ + ": cannot create run directory: " + ec.message());
+  if (ec) throw OutputError(dir_ + ": cannot create run directory: " + ec.message());
   poses_ = open_csv(dir_ + "/poses.csv", "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale", append);
   fitting_ = open_csv(dir_ + "/fitting.csv", "frame,object_id,fitting_distance_m", append);
 }
@@ -94,13 +106,31 @@ void RunWriter::write_labels(std::int64_t frame, const Image16& labels) {
   char name[64];
   std::snprintf(name, sizeof name, "/labels/%06lld.png", static_cast<long long>(frame));
   const std::string path = dir_ + name;
-  write_png16(path + ".tmp", labels, PngCompression::kFast);  // one per frame on the merger's critical path
-  std::filesystem::rename(path + ".tmp", path);
+  try {
+    write_png16(path + ".tmp", labels, PngCompression::kFast);  // one per frame on the merger's critical path
+  } catch (const ImageIoError& e) {
+    throw OutputError(e.what());
+  }
+  std::error_code error;
+  std::filesystem::rename(path + ".tmp", path, error);
+  if (error) throw OutputError(path + ": cannot rename from " + path + ".tmp: " + error.message());
+}
+
+void RunWriter::flush_poses() {
+  errno = 0;
+  poses_.flush();
+  check_stream(poses_, dir_ + "/poses.csv", errno);
+}
+
+void RunWriter::flush_fitting() {
+  errno = 0;
+  fitting_.flush();
+  check_stream(fitting_, dir_ + "/fitting.csv", errno);
 }
 
 void RunWriter::flush() {
-  poses_.flush();
-  fitting_.flush();
+  flush_poses();
+  flush_fitting();
 }
 
 Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,

@@ -11,7 +11,10 @@ int run_service_main(const std::function<int()>& body) {
     return body();
   } catch (const ConfigError& e) {
     spdlog::error("configuration refused: {}", e.what());
-    return 2;
+    return kExitConfigRefused;
+  } catch (const OutputError& e) {
+    spdlog::error("output failed: {}", e.what());
+    return kExitOutputFailed;
   } catch (const std::exception& e) {
     spdlog::error("fatal: {}", e.what());
     return 1;

@@ -2,11 +2,12 @@
 // The frames of a recorded lcm log (lcm-logger's file of a run): every MFOT_FRAME event in log
 // order, published as recorded (SourceFrame::encoded), so replaying a log through a fresh process
 // group in lockstep reproduces its poses and segmentation bit for bit. Undecodable events are
-// skipped and counted; a file that is not an lcm log is refused when opened.
+// skipped and counted; a file that is not an lcm log is refused when opened, and a truncated or
+// corrupt event fails next() with the byte offset (service::LcmLogReader validates every header).
 
 #include "mfot/capture/frame_source.hpp"
 
-#include <lcm/lcm-cpp.hpp>
+#include "mfot/service/lcm_log_reader.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -16,9 +17,10 @@ namespace mfot::capture {
 
 class LcmLogSource : public FrameSource {
  public:
-  // Throws CaptureError naming the file when it cannot be opened.
+  // Throws CaptureError naming the file when it cannot be opened or is not an LCM log.
   explicit LcmLogSource(std::string path);
 
+  // Throws CaptureError naming the file and byte offset of a truncated or corrupt event.
   std::optional<SourceFrame> next() override;
   std::string name() const override { return "lcmlog:" + path_; }
   std::string kind() const override { return "lcmlog"; }
@@ -31,7 +33,7 @@ class LcmLogSource : public FrameSource {
   void open();
 
   std::string path_;
-  std::unique_ptr<lcm::LogFile> log_;
+  std::unique_ptr<service::LcmLogReader> log_;
   std::int64_t index_ = 0;
   std::int64_t undecodable_ = 0;
 };

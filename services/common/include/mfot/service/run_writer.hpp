@@ -17,7 +17,7 @@ namespace mfot::service {
 
 class RunWriter {
  public:
-  // Creates dir (and dir/labels); throws std::runtime_error naming the path on failure. With
+  // Creates dir (and dir/labels); throws OutputError naming the path on failure. With
   // `append` the CSV files of an earlier writer (a restarted merger) are continued.
   explicit RunWriter(const std::string& dir, bool append = false);
   RunWriter(const RunWriter&) = delete;
@@ -29,11 +29,13 @@ class RunWriter {
   void write_fitting(std::int64_t frame, std::int32_t object_id, double fitting_distance_m);
   // Written to a temporary name and renamed, so a reader never sees half an image.
   void write_labels(std::int64_t frame, const Image16& labels);
+  // The flushes throw OutputError (service_main.hpp) naming the file and the system's reason when
+  // bytes could not be written (a full disk), as do write_labels and the constructor.
   void flush();
   // The poses (write_pose, flush_poses) and the per-frame outputs (write_fitting, write_labels,
   // flush_fitting) touch separate files: each group may be used from its own thread.
-  void flush_poses() { poses_.flush(); }
-  void flush_fitting() { fitting_.flush(); }
+  void flush_poses();
+  void flush_fitting();
 
  private:
   std::string dir_;

@@ -1,10 +1,23 @@
 #pragma once
-// The common ending of every service's main: a refused configuration exits with 2, any other
-// failure with 1, each logged with its reason.
+// The common ending of every service's main: a refused configuration exits with 2, an output file
+// that cannot be written (a full disk, a read-only folder: OutputError) with 3, any other failure
+// with 1, each logged with its reason. scripts/mfot-run restarts none of 2 and 3 (a restart would
+// fail the same way) and stops the whole group on 3.
 
 #include <functional>
+#include <stdexcept>
+#include <string>
 
 namespace mfot::service {
+
+inline constexpr int kExitConfigRefused = 2;
+inline constexpr int kExitOutputFailed = 3;
+
+// A file of the run's output could not be written; what() names the path and the system's reason.
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 int run_service_main(const std::function<int()>& body);
 
