@@ -1,4 +1,4 @@
-// mfot-tracker: one tracker worker. It idles until the merger assigns it an object on MFOT_MODEL,
+// mfot-tracker: one tracker worker. It idles until the merger assigns it an object on MFOT_MODEL_<id>,
 // then runs that object's particle filter (thesis 2.2.2, 3.3) on every scene and publishes the
 // estimate; it heartbeats so the merger can hand its object to another worker if this one dies or
 // stalls. The protocol is TrackerWorker (services/common); this main wires it to LCM. The
@@ -32,14 +32,16 @@ class LcmTrackerLink : public TrackerSink {
   void publish_heartbeat(const heartbeat_t& heartbeat) override { lcm_.publish(channel::kHeartbeat, &heartbeat); }
   void note(const std::string& message) override { status_.set_message(message); }
 
-  void subscribe(TrackerWorker& worker) {
+  void subscribe(TrackerWorker& worker, std::int32_t worker_id) {
     worker_ = &worker;
-    lcm_.subscribe(channel::kModel, &LcmTrackerLink::on_model, this);
+    lcm_.subscribe(channel::model_channel(worker_id), &LcmTrackerLink::on_model, this);
+    lcm_.subscribe(channel::kFrameDone, &LcmTrackerLink::on_frame_done, this);
     lcm_.subscribe(channel::kScene, &LcmTrackerLink::on_scene, this);
   }
 
  private:
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_model(rbuf, chan); }
+  void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_frame_done(rbuf, chan); }
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_scene(rbuf, chan); }
 
   lcm::LCM& lcm_;
@@ -55,7 +57,7 @@ int run_tracker(lcm::LCM& lcm, const TrackerConfig& config, int worker_id) {
   const LikelihoodChoice& choice = worker.tracker().likelihood();
   status.set_backend(choice.backend);
   spdlog::info("likelihood backend {}{}", choice.backend, choice.note.empty() ? "" : " (" + choice.note + ")");
-  link.subscribe(worker);
+  link.subscribe(worker, worker_id);
   while (!stop_requested()) {
     if (!handle_for(lcm, 5)) {
       if (stop_requested()) break;  // the signal interrupted the wait

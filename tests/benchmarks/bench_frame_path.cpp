@@ -7,6 +7,7 @@
 // It also checks that the label images it computes equal the run's RUN/labels/<frame>.png, so a
 // faster label writer is checked against an earlier build's output.
 
+#include "mfot/frame_done_t.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/metrics.hpp"
 #include "mfot/object_model_t.hpp"
@@ -42,7 +43,7 @@ struct Recorded {
   std::map<std::int64_t, mfot::frame_t> frames;
   std::map<std::int64_t, mfot::scene_cloud_t> scenes;
   std::map<std::int64_t, mfot::segmentation_t> segmentations;
-  // Per frame: the models the merger sent after finishing it (object id -> model message).
+  // Per frame: each object's model as of that frame, at its pose of the frame (object id -> model message).
   std::map<std::int64_t, std::map<std::int32_t, mfot::object_model_t>> models;
 };
 
@@ -55,6 +56,7 @@ bool decode_event(const mfot::service::LcmLogEvent& event, Message& out) {
 Recorded read_log(const std::string& path, std::size_t max_frames) {
   mfot::service::LcmLogReader log(path);  // throws naming the path and byte offset of a broken log
   Recorded r;
+  std::map<std::int32_t, mfot::object_model_t> latest;  // each object's last model sent
   while (const auto event = log.next()) {
     if (event->channel == "MFOT_FRAME" && r.frames.size() < max_frames) {
       mfot::frame_t m;
@@ -62,10 +64,18 @@ Recorded read_log(const std::string& path, std::size_t max_frames) {
     } else if (event->channel == "MFOT_SCENE") {
       mfot::scene_cloud_t m;
       if (decode_event(*event, m) && r.frames.count(m.frame_seq)) r.scenes[m.frame_seq] = std::move(m);
-    } else if (event->channel == "MFOT_MODEL") {
+    } else if (event->channel.rfind("MFOT_MODEL_", 0) == 0) {  // sent when a model changes
       mfot::object_model_t m;
-      if (decode_event(*event, m) && m.num_points > 0 && r.frames.count(m.frame_seq)) {
-        r.models[m.frame_seq][m.object_id] = std::move(m);
+      if (decode_event(*event, m) && m.num_points > 0) latest[m.object_id] = std::move(m);
+    } else if (event->channel == "MFOT_FRAME_DONE") {  // every object's pose of the frame
+      mfot::frame_done_t m;
+      if (!decode_event(*event, m) || !r.frames.count(m.frame_seq)) continue;
+      for (const mfot::frame_done_object_t& entry : m.objects) {
+        const auto model = latest.find(entry.object_id);
+        if (model == latest.end()) continue;
+        mfot::object_model_t& at_frame = r.models[m.frame_seq][entry.object_id] = model->second;
+        std::copy(entry.position, entry.position + 3, at_frame.position);
+        std::copy(entry.orientation, entry.orientation + 4, at_frame.orientation);
       }
     } else if (event->channel == "MFOT_SEGMENTATION") {
       mfot::segmentation_t m;

@@ -3,11 +3,12 @@
 each direction, dropping and swapping messages with seeded probabilities, like a congested UDP
 network would.
 
-    lcm_relay.py --a URL_A --b URL_B --a-to-b MFOT_SCENE,MFOT_MODEL \
+    lcm_relay.py --a URL_A --b URL_B --a-to-b 'MFOT_SCENE,MFOT_MODEL_.*,MFOT_FRAME_DONE' \
         --b-to-a MFOT_ESTIMATE,MFOT_HEARTBEAT,MFOT_STATUS --drop MFOT_SCENE=0.1 --swap 0.05 --seed 7
 
-Each channel draws from its own generator, seeded from --seed and the channel name, so the n-th
-message of a channel meets the same fate in every run. A swapped message is held back and sent right after the next message on its channel (or after
+A channel name is an LCM channel regex (MFOT_MODEL_.* takes every worker's model channel); --drop and
+the counts name it as given. Each one draws from its own generator, seeded from --seed and that name,
+so the n-th message of a channel meets the same fate in every run. A swapped message is held back and sent right after the next message on its channel (or after
 --hold-s when none comes), so receivers see the two out of order. Prints "ready" once both
 buses are open; on SIGTERM or SIGINT prints per-channel counts as one JSON line and exits 0.
 """
@@ -52,20 +53,20 @@ class Direction:
                  swap: float, hold_s: float, seed: int, counts: dict):
         self.sink, self.drop, self.swap, self.hold_s, self.counts = sink, drop, swap, hold_s, counts
         self.rng = {name: random.Random(f"{seed}:{name}") for name in names}
-        self.held: dict[str, tuple[float, bytes]] = {}
+        self.held: dict[str, tuple[float, bytes, str]] = {}  # by channel: since, message, its name
         for name in names:
             counts.setdefault(name, {"forwarded": 0, "dropped": 0, "swapped": 0})
-            source.subscribe(name, self.on_message)
+            source.subscribe(name, lambda channel, data, name=name: self.on_message(name, channel, data))
 
-    def on_message(self, channel: str, data: bytes) -> None:
-        count = self.counts[channel]
-        rng = self.rng[channel]
-        if rng.random() < self.drop.get(channel, 0.0):
+    def on_message(self, name: str, channel: str, data: bytes) -> None:
+        count = self.counts[name]
+        rng = self.rng[name]
+        if rng.random() < self.drop.get(name, 0.0):
             count["dropped"] += 1
             return
         held = self.held.pop(channel, None)
         if held is None and rng.random() < self.swap:
-            self.held[channel] = (time.monotonic(), data)
+            self.held[channel] = (time.monotonic(), data, name)
             count["swapped"] += 1
             return
         self.sink.publish(channel, data)
@@ -75,9 +76,10 @@ class Direction:
             count["forwarded"] += 1
 
     def release_overdue(self, now: float) -> None:
-        for channel in [c for c, (since, _) in self.held.items() if now - since >= self.hold_s]:
-            self.sink.publish(channel, self.held.pop(channel)[1])
-            self.counts[channel]["forwarded"] += 1
+        for channel in [c for c, (since, _, _) in self.held.items() if now - since >= self.hold_s]:
+            _, data, name = self.held.pop(channel)
+            self.sink.publish(channel, data)
+            self.counts[name]["forwarded"] += 1
 
 
 def main() -> int:

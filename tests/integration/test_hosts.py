@@ -75,7 +75,7 @@ class TwoHostsTest(unittest.TestCase):
             owner_before, owner_after, moved_at, history = {}, {}, {}, {}
             poses_frames_seen, ids_before, ids_after = set(), set(), set()
             for ev in mfot_lcm.read_log(run_a / "mfot.lcmlog"):
-                if ev.channel == "MFOT_MODEL":
+                if ev.channel.startswith("MFOT_MODEL_"):
                     m = self.types.object_model_t.decode(ev.data)
                     history.setdefault(m.object_id, []).append((round((ev.utime - killed_at_us) / 1e6, 3), m.worker_id))
                     if m.worker_id < 0:

@@ -18,6 +18,8 @@ struct SentModel {
   Pose pose;
   std::size_t model_points;
   std::vector<Eigen::Vector3f> claimed;  // the other objects' points sent with it
+  std::int32_t recipient;                // the worker whose channel carries it
+  std::int32_t version;
 };
 
 struct PublishedFrame {
@@ -32,13 +34,15 @@ struct PublishedFrame {
 class RecordingSink : public MergerSink {
  public:
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) override {
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) override {
     models.push_back({object.id, worker_id, worker_instance, frame_seq, object.pose, object.model.cloud.size(),
-                      std::vector<Eigen::Vector3f>(claimed.begin(), claimed.end())});
+                      std::vector<Eigen::Vector3f>(claimed.begin(), claimed.end()), recipient, object.version});
   }
-  void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override {
+  void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) override {
     retirements.emplace_back(object_id, frame_seq);
+    retirement_recipients.push_back(recipient);
   }
+  void send_frame_done(frame_done_t& message) override { frame_dones.push_back(message); }
   void resend_scene(std::span<const std::uint8_t> message) override { resent_scenes.emplace_back(message.begin(), message.end()); }
   void publish_frame(const FinishedFrame& frame) override {
     PublishedFrame p{frame.scene.frame_seq, frame.result.labels, frame.result.created, frame.result.retired, {}, {}};
@@ -52,6 +56,8 @@ class RecordingSink : public MergerSink {
 
   std::vector<SentModel> models;
   std::vector<std::pair<std::int32_t, std::int64_t>> retirements;
+  std::vector<std::int32_t> retirement_recipients;
+  std::vector<frame_done_t> frame_dones;
   std::vector<std::vector<std::uint8_t>> resent_scenes;
   std::vector<PublishedFrame> frames;
   std::vector<std::string> notes;

@@ -5,6 +5,7 @@
 // rejected and counted once in the MalformedCounter, and valid messages must still pass after it.
 
 #include "mfot/frame_t.hpp"
+#include "mfot/frame_done_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/poses_t.hpp"
@@ -108,7 +109,25 @@ bool accept_model(const Bytes& bytes, MalformedCounter& malformed) {
   const std::int64_t before = malformed.total();
   Bytes copy = bytes;
   const lcm::ReceiveBuffer buffer{copy.data(), static_cast<std::uint32_t>(copy.size()), 0};
-  worker.on_model(&buffer, channel::kModel);
+  worker.on_model(&buffer, channel::model_channel(0));
+  return malformed.total() == before;
+}
+
+// tracker on MFOT_FRAME_DONE (TrackerWorker::on_frame_done, on a fresh worker 0).
+bool accept_frame_done(const Bytes& bytes, MalformedCounter& malformed) {
+  TrackerConfig config;
+  config.likelihood.backend = LikelihoodBackend::kCpu;
+  struct NoOutput : TrackerSink {
+    void publish_estimate(const tracker_estimate_t&) override {}
+    void publish_heartbeat(const heartbeat_t&) override {}
+    void note(const std::string&) override {}
+  } sink;
+  testing::ManualClock clock;
+  TrackerWorker worker(config, {0, 0, "test"}, sink, malformed, clock.function());
+  const std::int64_t before = malformed.total();
+  Bytes copy = bytes;
+  const lcm::ReceiveBuffer buffer{copy.data(), static_cast<std::uint32_t>(copy.size()), 0};
+  worker.on_frame_done(&buffer, channel::kFrameDone);
   return malformed.total() == before;
 }
 
@@ -227,10 +246,36 @@ poses_t make_poses(int n) {
   return msg;
 }
 
+// Two objects, the second with `claimed` claimed points.
+frame_done_t make_frame_done(int claimed) {
+  frame_done_t msg{};
+  msg.frame_seq = 5;
+  for (int i = 0; i < 2; ++i) {
+    frame_done_object_t entry{};
+    entry.object_id = i + 1;
+    entry.worker_id = i;
+    entry.version = 3;
+    entry.orientation[0] = 1.0;
+    msg.objects.push_back(entry);
+  }
+  for (int i = 0; i < claimed; ++i) {
+    msg.objects[1].claimed_x.push_back(0.1f * static_cast<float>(i));
+    msg.objects[1].claimed_y.push_back(0.f);
+    msg.objects[1].claimed_z.push_back(1.f);
+  }
+  msg.objects[1].num_claimed = claimed;
+  msg.num_objects = 2;
+  return msg;
+}
+
 // Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order).
 constexpr std::size_t kSceneNumPoints = 8 + 24 + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
 constexpr std::size_t kModelNumPoints = 8 + 16 + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
 constexpr std::size_t kPosesNumObjects = 8 + 24;
+constexpr std::size_t kFrameDoneNumObjects = 8 + 16;
+constexpr std::size_t kFrameDoneEntry = 4 + 4 + 8 + 4 + 56 + 8 + 48;  // fixed fields of one frame_done_object_t
+// The second entry's num_claimed (the first has none).
+constexpr std::size_t kFrameDoneSecondNumClaimed = kFrameDoneNumObjects + 4 + kFrameDoneEntry + 4 + kFrameDoneEntry;
 std::size_t frame_depth_size_offset(const frame_t& msg) { return 8 + 24 + 4 + msg.source.size() + 1 + 24 + 1; }
 
 // ---- checks shared by every type ----------------------------------------------------------------
@@ -279,7 +324,8 @@ std::vector<Case> every_subscribed_type() {
           {"object_model_t", accept_model, encode(make_model(5))},
           {"tracker_estimate_t", accept_estimate, encode(make_estimate())},
           {"heartbeat_t", accept_heartbeat, encode(make_heartbeat())},
-          {"poses_t", accept_poses, encode(make_poses(2))}};
+          {"poses_t", accept_poses, encode(make_poses(2))},
+          {"frame_done_t", accept_frame_done, encode(make_frame_done(3))}};
 }
 
 TEST(MalformedMessages, TruncatedOverlongAndWrongFingerprintAreRejected) {
@@ -328,6 +374,13 @@ TEST(MalformedMessages, AbsurdAndNegativeArraySizesAreRejected) {
   const Bytes poses = encode(make_poses(2));
   ASSERT_EQ(read_int32(poses, kPosesNumObjects), 2);
   expect_rejected_and_counted(accept_poses, poses, patched_counts(poses, kPosesNumObjects));
+
+  const Bytes frame_done = encode(make_frame_done(3));
+  ASSERT_EQ(read_int32(frame_done, kFrameDoneNumObjects), 2);
+  ASSERT_EQ(read_int32(frame_done, kFrameDoneSecondNumClaimed), 3);
+  auto frame_done_inputs = patched_counts(frame_done, kFrameDoneNumObjects);
+  for (auto& patched : patched_counts(frame_done, kFrameDoneSecondNumClaimed)) frame_done_inputs.push_back(patched);
+  expect_rejected_and_counted(accept_frame_done, frame_done, frame_done_inputs);
 
   const frame_t frame_message = make_frame_message();
   const Bytes frame = encode(frame_message);

@@ -443,9 +443,14 @@ TEST_F(MergerCoreTest, AFrameWithoutObjectsCreatesThemAndHandsThemToWorkers) {
   ASSERT_EQ(sink.frames.size(), 2u);
   EXPECT_FALSE(sink.frames[1].stale.at(1));
   EXPECT_NEAR(sink.frames[1].poses.at(1).translation.x(), moved.translation.x(), 1e-6f);
-  // Its owner got the model of frame 1.
+  // Its owner got the model of frame 1 (the default model update changed it), before the frame's end.
   EXPECT_EQ(sink.models.back().frame_seq, 1);
   EXPECT_EQ(sink.models.back().worker_id, 0);
+  EXPECT_EQ(sink.models.back().recipient, 0);
+  ASSERT_EQ(sink.frame_dones.size(), 2u);
+  EXPECT_EQ(sink.frame_dones[1].frame_seq, 1);
+  ASSERT_EQ(sink.frame_dones[1].num_objects, 1);
+  EXPECT_EQ(sink.frame_dones[1].objects[0].version, sink.models.back().version);
   EXPECT_FALSE(core.manager().objects().at(1).held);
   // A held estimate (the tracker saw nothing of it) reaches the manager as held.
   deliver(&MergerCore::on_scene, block_scene(2, 0.01f));
@@ -489,6 +494,100 @@ TEST_F(MergerCoreTest, EachModelCarriesWhatTheOtherObjectsClaimNearIt) {
   }
 }
 
+// Without a model update (alpha 0) the model does not change: after its assignment it goes out
+// again only when asked for; every frame's end lists the object with its owner and version, and
+// what the owner's tracker needs beside the model. With alpha > 0 every frame changes the model:
+// it goes out every frame, with the frame's end listing the version sent.
+TEST_F(MergerCoreTest, AModelGoesOutOnlyWhenItChangesAndEveryFrameEndListsTheVersions) {
+  for (const float alpha : {0.f, 0.5f}) {
+    SCOPED_TRACE(::testing::Message() << "alpha " << alpha);
+    MergerCoreOptions o = options();
+    o.manager.model_update.alpha = alpha;
+    o.claimed_margin = 0.062f;
+    RecordingSink out;
+    MergerCore merger{o, out, malformed, clock.function()};
+    const auto feed = [&merger](auto handler, const auto& message) {
+      Bytes bytes = encode(message);
+      const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+      (merger.*handler)(&buffer, "TEST");
+    };
+    feed(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+    feed(&MergerCore::on_heartbeat, heartbeat_of(1, -1, -1));
+    feed(&MergerCore::on_scene, two_block_scene(0, 0.f));
+    ASSERT_EQ(merger.step(), 1);
+    ASSERT_EQ(out.models.size(), 2u);  // the assignments
+    for (std::int64_t seq = 1; seq <= 3; ++seq) {
+      const std::size_t models_before = out.models.size();
+      feed(&MergerCore::on_scene, two_block_scene(seq, 0.f));
+      for (const std::int32_t object : {1, 2}) {
+        const std::int32_t owner = merger.workers().owner(object).value();
+        feed(&MergerCore::on_estimate, estimate_of(seq, object, owner, merger.manager().objects().at(object).pose));
+      }
+      ASSERT_EQ(merger.step(), 1);
+      ASSERT_EQ(out.frame_dones.size(), static_cast<std::size_t>(seq + 1));
+      const frame_done_t& done = out.frame_dones.back();
+      EXPECT_EQ(done.frame_seq, seq);
+      ASSERT_EQ(done.num_objects, 2);
+      ASSERT_EQ(done.objects.size(), 2u);
+      for (const frame_done_object_t& entry : done.objects) {
+        const ManagedObject& object = merger.manager().objects().at(entry.object_id);
+        EXPECT_EQ(entry.version, object.version);
+        EXPECT_EQ(entry.worker_id, merger.workers().owner(entry.object_id).value());
+        EXPECT_EQ(entry.worker_instance, 100 + entry.worker_id);
+        std::vector<Eigen::Vector3f> claimed;  // the other block's points near it, as a model carries them
+        merger.manager().claimed_points(entry.object_id, o.claimed_margin, claimed);
+        EXPECT_GT(claimed.size(), 100u);
+        ASSERT_EQ(entry.num_claimed, static_cast<std::int32_t>(claimed.size()));
+        EXPECT_EQ(entry.claimed_x[0], claimed[0].x());
+        EXPECT_FLOAT_EQ(static_cast<float>(entry.position[0]), object.pose.translation.x());
+      }
+      if (alpha == 0.f) {
+        EXPECT_EQ(out.models.size(), models_before);
+        EXPECT_EQ(done.objects[0].version, out.models[0].version);
+      } else {
+        ASSERT_EQ(out.models.size(), models_before + 2);
+        for (std::size_t k = models_before; k < out.models.size(); ++k) {
+          EXPECT_EQ(out.models[k].frame_seq, seq);
+          EXPECT_EQ(out.models[k].recipient, out.models[k].worker_id);
+          EXPECT_EQ(out.models[k].version, merger.manager().objects().at(out.models[k].object_id).version);
+        }
+      }
+    }
+  }
+}
+
+// A tracker that lacks the model its frame's end lists falls behind; its heartbeat says so and the
+// model goes out again (the frame assembler's re-send), on that worker's channel.
+TEST_F(MergerCoreTest, AWorkerBehindGetsItsModelAgain) {
+  MergerCoreOptions o = options();
+  o.manager.model_update.alpha = 0.f;
+  RecordingSink out;
+  MergerCore merger{o, out, malformed, clock.function()};
+  const auto feed = [&merger](auto handler, const auto& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (merger.*handler)(&buffer, "TEST");
+  };
+  feed(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  feed(&MergerCore::on_scene, block_scene(0, 0.f));
+  ASSERT_EQ(merger.step(), 1);
+  feed(&MergerCore::on_scene, block_scene(1, 0.f));
+  feed(&MergerCore::on_estimate, estimate_of(1, 1, 0, merger.manager().objects().at(1).pose));
+  ASSERT_EQ(merger.step(), 1);
+  ASSERT_EQ(out.models.size(), 1u);  // the assignment only
+  // Frame 2's scene is out; well after it the worker still reports frame 1 as its last: it lacks
+  // frame 1's model (its frame end was lost, or it held an older version than the frame end listed).
+  feed(&MergerCore::on_scene, block_scene(2, 0.f));
+  clock.advance(250ms);
+  feed(&MergerCore::on_heartbeat, heartbeat_of(0, 1, 1));
+  EXPECT_EQ(merger.step(), 0);
+  ASSERT_EQ(out.models.size(), 2u);
+  EXPECT_EQ(out.models[1].object_id, 1);
+  EXPECT_EQ(out.models[1].frame_seq, 1);
+  EXPECT_EQ(out.models[1].recipient, 0);
+  EXPECT_EQ(out.resent_scenes.size(), 1u);
+}
+
 TEST_F(MergerCoreTest, AMissingEstimateLeavesThePoseStaleAfterTheTimeout) {
   deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
   deliver(&MergerCore::on_scene, block_scene(0, 0.f));
@@ -530,6 +629,7 @@ TEST_F(MergerCoreTest, AWorkerHoldingAnUnknownObjectIsToldToRetireItAndItsIdIsNo
   deliver(&MergerCore::on_heartbeat, heartbeat_of(3, 7, 20));  // the retirement may be on its way
   ASSERT_EQ(sink.retirements.size(), 1u);
   EXPECT_EQ(sink.retirements[0].first, 7);
+  EXPECT_EQ(sink.retirement_recipients[0], 3);  // on the channel of the worker that holds it
   deliver(&MergerCore::on_scene, block_scene(0, 0.f));
   core.step();
   ASSERT_EQ(sink.frames.back().created.size(), 1u);

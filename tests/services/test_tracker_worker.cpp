@@ -4,6 +4,7 @@
 
 #include "../core/synthetic_object.hpp"
 #include "encoded_message.hpp"
+#include "mfot/frame_done_t.hpp"
 #include "mfot/jcsd_likelihood.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/scene_cloud_t.hpp"
@@ -301,6 +302,139 @@ TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) 
   EXPECT_FALSE(worker.tracker().has_object());
   deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
   deliver(&TrackerWorker::on_scene, scene_message(1));
+  EXPECT_EQ(worker.step(), 1);
+}
+
+
+// ---- the frame's end (frame_done_t) ---------------------------------------------------------------
+
+frame_done_object_t entry_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance, std::int32_t version) {
+  frame_done_object_t e{};
+  e.object_id = object_id;
+  e.worker_id = worker_id;
+  e.worker_instance = instance;
+  e.version = version;
+  pose_to_arrays(kStart, e.position, e.orientation);
+  return e;
+}
+
+frame_done_t frame_done_of(std::int64_t seq, std::vector<frame_done_object_t> objects) {
+  frame_done_t msg{};
+  msg.frame_seq = seq;
+  msg.objects = std::move(objects);
+  msg.num_objects = static_cast<std::int32_t>(msg.objects.size());
+  return msg;
+}
+
+// The entry of the object held, at the version held, stands for that model of its frame: the next
+// scene goes at once, with what the entry says the other objects claim left out.
+TEST(TrackerWorkerFrameDone, AnEntryWithTheVersionHeldStandsForTheModelOfItsFrame) {
+  TrackerConfig c = TrackerWorkerTest::config();
+  c.step.exclude_claimed_radius = 0.01f;
+  RecordingTrackerSink sink;
+  MalformedCounter malformed;
+  const auto now = std::chrono::steady_clock::time_point{std::chrono::seconds(100)};
+  TrackerWorker worker{c, {4, 444, "host-a"}, sink, malformed, [now] { return now; }};
+  auto deliver_to = [&worker](auto handler, const auto& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (worker.*handler)(&buffer, "TEST");
+  };
+  const scene_cloud_t scene = scene_message(1);
+  deliver_to(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver_to(&TrackerWorker::on_scene, scene);
+  ASSERT_EQ(worker.step(), 1);
+  EXPECT_EQ(sink.estimates[0].num_hypothesis_points, scene.num_points);
+  frame_done_object_t mine = entry_for(7, 4, 444, 1);
+  std::vector<Eigen::Vector3f> claimed;
+  for (std::size_t i = 0; i < scene.x.size(); ++i) claimed.emplace_back(scene.x[i], scene.y[i], scene.z[i]);
+  claimed_to_message(claimed, mine);
+  deliver_to(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(2, 1, 111, 5), mine}));
+  scene_cloud_t next = scene_message(2);
+  next.x = scene.x, next.y = scene.y, next.z = scene.z;
+  deliver_to(&TrackerWorker::on_scene, next);
+  ASSERT_EQ(worker.step(), 1);
+  ASSERT_EQ(sink.estimates.size(), 2u);
+  EXPECT_EQ(sink.estimates[1].num_hypothesis_points, 0);
+  EXPECT_EQ(worker.tracker().grid_builds(), 1);  // the model kept
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+// The entry lists a version this worker does not hold (the model was lost): the next scene waits,
+// the heartbeat shows the worker behind, and the model, once it comes, releases the scene.
+TEST_F(TrackerWorkerTest, AnEntryWithAVersionNotHeldLeavesTheNextSceneWaitingForTheModel) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  ASSERT_EQ(worker.step(), 1);
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(7, 4, 444, 2)}));
+  deliver(&TrackerWorker::on_scene, scene_message(2));
+  now += std::chrono::milliseconds(150);
+  EXPECT_EQ(worker.step(), 0);
+  EXPECT_EQ(sink.heartbeats.back().last_frame_seq, 1);
+  EXPECT_EQ(sink.heartbeats.back().object_id, 7);
+  object_model_t version2 = model_for(7, 4, 444, 1);
+  version2.version = 2;
+  deliver(&TrackerWorker::on_model, version2);
+  EXPECT_EQ(worker.tracker().model_version(), 2);
+  EXPECT_EQ(worker.step(), 1);
+  EXPECT_EQ(sink.estimates.back().frame_seq, 2);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(TrackerWorkerTest, AFrameEndGivingTheObjectToAnotherOrNotListingItTakesItAway) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  ASSERT_TRUE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(7, 4, 444, 1)}));
+  EXPECT_TRUE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(2, {entry_for(7, 4, 555, 1)}));  // worker 4 in another process
+  EXPECT_FALSE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 3));
+  ASSERT_TRUE(worker.tracker().has_object());
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(4, {entry_for(8, 4, 444, 1)}));  // retired; 8 not held
+  EXPECT_FALSE(worker.tracker().has_object());
+  // Scenes of finished frames are not tracked once an object comes.
+  deliver(&TrackerWorker::on_scene, scene_message(4));
+  deliver(&TrackerWorker::on_model, model_for(8, 4, 444, 4));
+  EXPECT_EQ(worker.step(), 0);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(TrackerWorkerTest, AFrameEndCarryingTheHiddenObjectMovesTheFilter) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  ASSERT_EQ(worker.step(), 1);
+  const Pose tracked = worker.tracker().filter().estimate();
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(7, 4, 444, 1)}));  // kStart: not carried, ignored
+  EXPECT_EQ(worker.tracker().filter().estimate().translation, tracked.translation);
+  frame_done_object_t carried = entry_for(7, 4, 444, 1);
+  Pose away = kStart;
+  away.translation += Eigen::Vector3f(0.04f, -0.01f, 0.02f);
+  pose_to_arrays(away, carried.position, carried.orientation);
+  carried.carried_by = 3;
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(2, {carried}));
+  EXPECT_LT((worker.tracker().filter().estimate().translation - away.translation).norm(), 1e-6f);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+TEST_F(TrackerWorkerTest, MalformedFrameEndsAreCountedAndChangeNothing) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  Bytes truncated = encode(frame_done_of(1, {entry_for(7, 4, 444, 1)}));
+  truncated.resize(truncated.size() - 3);
+  const lcm::ReceiveBuffer half{truncated.data(), static_cast<std::uint32_t>(truncated.size()), 0};
+  worker.on_frame_done(&half, "MFOT_FRAME_DONE");
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(-5, {entry_for(7, 4, 444, 1)}));
+  frame_done_object_t bad_claim = entry_for(7, 4, 444, 1);
+  claimed_to_message(std::vector<Eigen::Vector3f>{{0.f, std::nanf(""), 1.f}}, bad_claim);
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {bad_claim}));
+  frame_done_object_t bad_pose = entry_for(7, 4, 444, 1);
+  bad_pose.orientation[0] = 3.0;
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {bad_pose}));
+  EXPECT_EQ(malformed.total(), 4);
+  EXPECT_TRUE(worker.tracker().has_object());
+  // None of them counted as frame 1's model: scene 2 waits for it.
+  deliver(&TrackerWorker::on_scene, scene_message(2));
+  EXPECT_EQ(worker.step(), 0);
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(7, 4, 444, 1)}));
   EXPECT_EQ(worker.step(), 1);
 }
 

@@ -182,7 +182,9 @@ void model_to_message(const ObjectModel& model, object_model_t& msg) {
   write_points(model.cloud.positions, model.cloud.colors, msg);
 }
 
-std::optional<std::string> companion_from_message(const object_model_t& msg, std::optional<PoseVector>& out) {
+namespace {
+template <class Message>
+std::optional<std::string> companion_of(const Message& msg, std::optional<PoseVector>& out) {
   out.reset();
   if (msg.companion < 0) return "negative companion";
   if (msg.companion == 0) return std::nullopt;
@@ -196,7 +198,8 @@ std::optional<std::string> companion_from_message(const object_model_t& msg, std
   return std::nullopt;
 }
 
-std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out) {
+template <class Message>
+std::optional<std::string> claimed_of(const Message& msg, std::vector<Eigen::Vector3f>& out) {
   out.clear();
   if (msg.num_claimed < 0) return "negative num_claimed";
   const auto n = static_cast<std::size_t>(msg.num_claimed);
@@ -214,7 +217,8 @@ std::optional<std::string> claimed_from_message(const object_model_t& msg, std::
   return std::nullopt;
 }
 
-void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg) {
+template <class Message>
+void write_claimed(std::span<const Eigen::Vector3f> claimed, Message& msg) {
   msg.num_claimed = static_cast<std::int32_t>(claimed.size());
   msg.claimed_x.resize(claimed.size());
   msg.claimed_y.resize(claimed.size());
@@ -224,6 +228,25 @@ void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t
     msg.claimed_y[i] = claimed[i].y();
     msg.claimed_z[i] = claimed[i].z();
   }
+}
+
+}  // namespace
+
+std::optional<std::string> companion_from_message(const object_model_t& msg, std::optional<PoseVector>& out) {
+  return companion_of(msg, out);
+}
+std::optional<std::string> companion_from_message(const frame_done_object_t& msg, std::optional<PoseVector>& out) {
+  return companion_of(msg, out);
+}
+std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out) {
+  return claimed_of(msg, out);
+}
+std::optional<std::string> claimed_from_message(const frame_done_object_t& msg, std::vector<Eigen::Vector3f>& out) {
+  return claimed_of(msg, out);
+}
+void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg) { write_claimed(claimed, msg); }
+void claimed_to_message(std::span<const Eigen::Vector3f> claimed, frame_done_object_t& msg) {
+  write_claimed(claimed, msg);
 }
 
 }  // namespace mfot::service

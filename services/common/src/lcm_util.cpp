@@ -1,5 +1,6 @@
 #include "mfot/service/lcm_util.hpp"
 
+#include "mfot/frame_done_t.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
@@ -136,10 +137,29 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const segmentation_t*) {
   return fixed_count_fits(rbuf, segmentation_t::getHash(), 24, 4);
 }
 
-// hash 8 | utime, frame_seq, capture_utime 24 | num_objects; per object_pose_t id 4 + six
-// double vectors 160 + confidence 4 + stale 1.
+// hash 8 | utime, frame_seq, capture_utime 24 | num_objects; per object_pose_t id 4 + ten
+// double vectors 208 + confidence 4 + stale 1.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*) {
-  return fixed_count_fits(rbuf, poses_t::getHash(), 32, 169);
+  return fixed_count_fits(rbuf, poses_t::getHash(), 32, 217);
+}
+
+// hash 8 | utime, frame_seq 16 | num_objects; per frame_done_object_t: object_id, worker_id 8 |
+// worker_instance 8 | version 4 | position, orientation 56 | carried_by, companion 8 | companion_motion 48 |
+// num_claimed; per claimed point x, y, z 12.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_done_t*) {
+  constexpr std::size_t kObjectFixed = 132;
+  const WireLayout wire(rbuf, frame_done_t::getHash());
+  std::int64_t objects = 0;
+  if (!wire.ours() || !wire.int32_at(24, objects)) return true;
+  if (!wire.fits(28, objects, kObjectFixed + 4)) return false;
+  std::size_t offset = 28;
+  for (std::int64_t k = 0; k < objects; ++k) {
+    std::int64_t claimed = 0;
+    if (!wire.int32_at(offset + kObjectFixed, claimed)) return true;
+    if (!wire.fits(offset + kObjectFixed + 4, claimed, 12)) return false;
+    offset += kObjectFixed + 4 + 12 * static_cast<std::size_t>(std::max<std::int64_t>(claimed, 0));
+  }
+  return true;
 }
 
 // hash 8 | utime, capture_utime, seq 24 | source (int32 length incl. NUL, bytes) | width, height,

@@ -1,6 +1,7 @@
 #include "mfot/service/merger_core.hpp"
 
 #include "mfot/heartbeat_t.hpp"
+#include "mfot/service/merger_messages.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 
 #include <spdlog/spdlog.h>
@@ -90,21 +91,42 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
   const WorkerPool::Reply reply = workers_.heartbeat(
       {msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, clock_(), exists);
   if (reply.clash) sink_.note(*reply.clash);
+  // Every correction is for the worker that heartbeat: its own object's model, or word on an object it
+  // holds without owning it.
   for (const auto& correction : reply.corrections) {
     if (correction.kind == WorkerPool::Correction::Kind::kSendModel) {
-      send_model(correction.object_id, correction.worker_id, seq);
+      send_model(correction.object_id, correction.worker_id, seq, msg.worker_id);
     } else {
-      sink_.send_retirement(correction.object_id, seq);
+      sink_.send_retirement(correction.object_id, seq, msg.worker_id);
       // After a restart of this merger: controllers knew that id as another object.
       manager_.reserve_ids_through(correction.object_id);
     }
   }
 }
 
-void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq) {
+void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq,
+                            std::int32_t recipient) {
   claimed_.clear();
   if (claimed_margin_ > 0.f) manager_.claimed_points(object_id, claimed_margin_, claimed_);
-  sink_.send_model(manager_.objects().at(object_id), worker_id, workers_.instance_of(worker_id), frame_seq, claimed_);
+  const ManagedObject& object = manager_.objects().at(object_id);
+  const std::int64_t instance = workers_.instance_of(worker_id);
+  sink_.send_model(object, worker_id, instance, frame_seq, claimed_, recipient);
+  if (worker_id >= 0 && recipient == worker_id) models_sent_[object_id] = {worker_id, instance, object.version};
+}
+
+void MergerCore::send_frame_done(std::int64_t frame_seq) {
+  frame_done_.frame_seq = frame_seq;
+  const auto& objects = manager_.objects();
+  frame_done_.objects.resize(objects.size());
+  std::size_t k = 0;
+  for (const auto& [id, object] : objects) {
+    const std::int32_t owner = workers_.owner(id).value_or(-1);
+    claimed_.clear();
+    if (owner >= 0 && claimed_margin_ > 0.f) manager_.claimed_points(id, claimed_margin_, claimed_);
+    frame_done_entry(object, owner, owner >= 0 ? workers_.instance_of(owner) : 0, claimed_, frame_done_.objects[k++]);
+  }
+  frame_done_.num_objects = static_cast<std::int32_t>(k);
+  sink_.send_frame_done(frame_done_);
 }
 
 int MergerCore::step() {
@@ -116,7 +138,7 @@ int MergerCore::step() {
     const FrameAssembler::Poll poll = frames_.poll(now, workers_);
     if (!poll.resend_models.empty()) {
       for (const auto& [object_id, worker_id] : poll.resend_models) {
-        send_model(object_id, worker_id, frames_.last_finished_seq());
+        send_model(object_id, worker_id, frames_.last_finished_seq(), worker_id);
       }
       sink_.resend_scene(*poll.resend_scene);
     }
@@ -132,7 +154,7 @@ void MergerCore::assign_idle_workers(Clock::time_point now) {
   object_ids_.clear();
   for (const auto& [id, object] : manager_.objects()) object_ids_.push_back(id);
   for (const auto& [object_id, worker_id] : workers_.assign(object_ids_, now)) {
-    send_model(object_id, worker_id, frames_.last_finished_seq());
+    send_model(object_id, worker_id, frames_.last_finished_seq(), worker_id);
   }
 }
 
@@ -161,8 +183,9 @@ void MergerCore::finish_frame(Clock::time_point now) {
         std::none_of(result.reidentified.begin(), result.reidentified.end(), young_reidentified)) {
       spdlog::info("object {} retired (no support)", id);
     }
+    if (const auto owner = workers_.owner(id)) sink_.send_retirement(id, seq, *owner);
     workers_.release(id, now);
-    sink_.send_retirement(id, seq);
+    models_sent_.erase(id);
   }
   for (const std::int32_t id : result.created) {
     const bool kept_frame = std::find(result.registered.begin(), result.registered.end(), id) != result.registered.end();
@@ -172,12 +195,14 @@ void MergerCore::finish_frame(Clock::time_point now) {
     spdlog::info("object {} found again at frame {} away from where it was carried (its model registered)", id, seq);
   }
   assign_idle_workers(now);
-  // Every owner gets its object's model of this frame (a new object's owner got it on assignment).
+  // An owner whose object's model changed gets it (a new object's owner got it on assignment); every
+  // worker then gets the frame's end, which stands for the model of this frame where it did not change.
   for (const auto& [object_id, worker_id] : workers_.owners()) {
-    if (std::find(result.created.begin(), result.created.end(), object_id) == result.created.end()) {
-      send_model(object_id, worker_id, seq);
-    }
+    const auto sent = models_sent_.find(object_id);
+    const ModelSent now_owned{worker_id, workers_.instance_of(worker_id), manager_.objects().at(object_id).version};
+    if (sent == models_sent_.end() || !(sent->second == now_owned)) send_model(object_id, worker_id, seq, worker_id);
   }
+  send_frame_done(seq);
   sink_.publish_frame({due.scene, result, manager_.objects(), due_at});
   frames_.finished(clock_());
 }

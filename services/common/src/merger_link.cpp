@@ -27,7 +27,7 @@ LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const Merger
     : lcm_(lcm),
       status_(status),
       world_from_camera_(config.world_from_camera),
-      fps_(config.fps),
+      velocities_(config.world_from_camera),
       write_labels_(config.write_labels) {
   if (!output_dir) return;
   outputs_ = std::make_unique<RunOutputs>(
@@ -36,14 +36,20 @@ LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const Merger
 }
 
 void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                               std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) {
+                               std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed,
+                               std::int32_t recipient) {
   const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, claimed, now_utime());
-  lcm_.publish(channel::kModel, &msg);
+  lcm_.publish(channel::model_channel(recipient), &msg);
 }
 
-void LcmMergerLink::send_retirement(std::int32_t object_id, std::int64_t frame_seq) {
+void LcmMergerLink::send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) {
   const object_model_t msg = retirement_message(object_id, frame_seq, now_utime());
-  lcm_.publish(channel::kModel, &msg);
+  lcm_.publish(channel::model_channel(recipient), &msg);
+}
+
+void LcmMergerLink::send_frame_done(frame_done_t& message) {
+  message.utime = now_utime();
+  lcm_.publish(channel::kFrameDone, &message);
 }
 
 void LcmMergerLink::resend_scene(std::span<const std::uint8_t> message) {
@@ -55,7 +61,7 @@ void LcmMergerLink::publish_frame(const FinishedFrame& frame) {
   const segmentation_t seg = segmentation_message(scene.frame_seq, frame.result.labels, now_utime());
   lcm_.publish(channel::kSegmentation, &seg);
   const poses_t poses =
-      poses_message(scene.frame_seq, scene.capture_utime, frame.objects, world_from_camera_, fps_, now_utime());
+      poses_message(scene.frame_seq, scene.capture_utime, frame.objects, world_from_camera_, velocities_, now_utime());
   if (outputs_) outputs_->write_poses(scene.frame_seq, scene.capture_utime, frame.objects);
   lcm_.publish(channel::kPoses, &poses);
   // The files that only evaluation reads come after the poses, off the frame-to-pose path (in

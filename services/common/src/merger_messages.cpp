@@ -23,6 +23,19 @@ object_model_t model_message(const ManagedObject& object, std::int32_t worker_id
   return msg;
 }
 
+void frame_done_entry(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                      std::span<const Eigen::Vector3f> claimed, frame_done_object_t& out) {
+  out.object_id = object.id;
+  out.worker_id = worker_id;
+  out.worker_instance = worker_id >= 0 ? worker_instance : 0;
+  out.version = object.version;
+  pose_to_arrays(object.pose, out.position, out.orientation);
+  out.carried_by = object.carried_by;
+  out.companion = object.companion;
+  for (int i = 0; i < 6; ++i) out.companion_motion[i] = object.companion_motion[i];
+  claimed_to_message(claimed, out);
+}
+
 object_model_t retirement_message(std::int32_t object_id, std::int64_t frame_seq, std::int64_t utime) {
   object_model_t msg{};
   msg.utime = utime;
@@ -35,21 +48,25 @@ object_model_t retirement_message(std::int32_t object_id, std::int64_t frame_seq
 }
 
 poses_t poses_message(std::int64_t frame_seq, std::int64_t capture_utime,
-                      const std::map<std::int32_t, ManagedObject>& objects, const Pose& world_from_camera, float fps,
-                      std::int64_t utime) {
+                      const std::map<std::int32_t, ManagedObject>& objects, const Pose& world_from_camera,
+                      PoseVelocityEstimator& velocities, std::int64_t utime) {
   poses_t poses;
   poses.utime = utime;
   poses.frame_seq = frame_seq;
   poses.capture_utime = capture_utime;
+  velocities.forget_unless([&objects](std::int32_t id) { return objects.count(id) > 0; });
   for (const auto& [id, object] : objects) {
     object_pose_t p{};
     p.id = id;
     pose_to_arrays(object.pose, p.position, p.orientation);
     pose_to_arrays(Pose::from_isometry(world_from_camera.isometry() * object.pose.isometry()), p.world_position,
                    p.world_orientation);
+    const ObjectVelocity v = velocities.update(id, object.pose, capture_utime, object.stale);
     for (int i = 0; i < 3; ++i) {
-      p.linear_velocity[i] = object.velocity[i] * fps;
-      p.angular_velocity[i] = object.velocity[3 + i] * fps;
+      p.linear_velocity[i] = v.linear[i];
+      p.angular_velocity[i] = v.angular[i];
+      p.world_linear_velocity[i] = v.world_linear[i];
+      p.world_angular_velocity[i] = v.world_angular[i];
     }
     p.confidence = object.confidence;
     p.stale = object.stale;

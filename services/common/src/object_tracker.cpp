@@ -33,6 +33,11 @@ bool ObjectTracker::set_model(std::int32_t object_id, std::int32_t version, cons
   return new_object;
 }
 
+void ObjectTracker::carry_to(const Pose& pose) {
+  if (filter_ == nullptr) throw std::logic_error("ObjectTracker::carry_to without an object");
+  filter_->move_to(pose);
+}
+
 void ObjectTracker::drop() {
   filter_.reset();
   object_id_ = -1;

@@ -206,7 +206,6 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 0, 600000);
   c.write_labels = s.get<bool>("write_labels");
   c.fitting_distance = s.get<bool>("fitting_distance");
-  c.fps = s.get<float>("fps", 1.f, 1000.f);
   auto discovery = s.section("discovery");
   try {
     c.manager.discovery.method = parse_discovery_method(discovery.get<std::string>("method"));

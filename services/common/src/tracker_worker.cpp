@@ -1,5 +1,6 @@
 #include "mfot/service/tracker_worker.hpp"
 
+#include "mfot/frame_done_t.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/service/convert.hpp"
 
@@ -73,6 +74,47 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
   tracker_.set_companion_motion(companion_motion);
   // Scenes the merger had already finished when it sent this model are not ours to track.
   scenes_.model_received(msg.object_id, msg.frame_seq);
+}
+
+void TrackerWorker::on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  // A fresh message: lcm-gen's decode leaves an array whose count is 0 as it was.
+  frame_done_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  if (msg.frame_seq < -1) {
+    malformed_.record(channel_name, "invalid frame end", "frame_seq below -1");
+    return;
+  }
+  const frame_done_object_t* held = nullptr;  // the entry of the object held
+  const frame_done_object_t* mine = nullptr;  // the entry addressed to this worker process
+  for (const frame_done_object_t& entry : msg.objects) {
+    if (tracker_.has_object() && entry.object_id == tracker_.object_id()) held = &entry;
+    if (entry.worker_id == identity_.worker_id && entry.worker_instance == identity_.instance) mine = &entry;
+  }
+  // This frame's model of the object held, when its version did not change (else the model itself comes, or is
+  // sent again: scenes wait for it). Checked before anything changes.
+  const bool model_of_frame = mine != nullptr && mine == held && mine->version == tracker_.model_version();
+  Pose pose;
+  std::optional<PoseVector> companion_motion;
+  if (model_of_frame) {
+    std::optional<std::string> error = pose_from_arrays(mine->position, mine->orientation, pose);
+    if (!error) error = claimed_from_message(*mine, claimed_);
+    if (!error) error = companion_from_message(*mine, companion_motion);
+    if (error) {
+      malformed_.record(channel_name, "invalid frame end", *error);
+      return;
+    }
+  }
+  if (tracker_.has_object() && (held == nullptr || held != mine)) {
+    spdlog::info("object {} {}", tracker_.object_id(), held == nullptr ? "retired" : "moved to another worker");
+    tracker_.drop();
+    scenes_.object_dropped();
+  }
+  scenes_.frame_finished(msg.frame_seq);
+  if (!model_of_frame || !scenes_.accepts_model(mine->object_id, msg.frame_seq)) return;
+  if (mine->carried_by != 0) tracker_.carry_to(pose);
+  tracker_.set_claimed_points(claimed_);
+  tracker_.set_companion_motion(companion_motion);
+  scenes_.model_received(mine->object_id, msg.frame_seq);
 }
 
 void TrackerWorker::on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {

@@ -3,6 +3,7 @@
 // fails (inconsistent sizes, NaN/Inf coordinates, non-unit quaternion) is reported as a string
 // naming the problem and never reaches the core.
 
+#include "mfot/frame_done_object_t.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/object_model_t.hpp"
@@ -58,12 +59,17 @@ inline constexpr float kMaxModelRadius = 1.5f;
 std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
                                               PoseVector& velocity);
 void model_to_message(const ObjectModel& model, object_model_t& msg);
-// The claimed points of a model message (num_claimed, claimed_x/y/z: camera frame, metres); an
-// error names what is wrong (sizes disagreeing with num_claimed, a non-finite point), with out cleared.
+// The claimed points of a model message or a frame_done_t entry (num_claimed, claimed_x/y/z: camera
+// frame, metres); an error names what is wrong (sizes disagreeing with num_claimed, a non-finite
+// point), with out cleared.
 std::optional<std::string> claimed_from_message(const object_model_t& msg, std::vector<Eigen::Vector3f>& out);
+std::optional<std::string> claimed_from_message(const frame_done_object_t& msg, std::vector<Eigen::Vector3f>& out);
 void claimed_to_message(std::span<const Eigen::Vector3f> claimed, object_model_t& msg);
-// The companion's motion of a model message (companion > 0: companion_motion; 0: nullopt); an error
-// names what is wrong (a negative companion, the object itself, a non-finite motion), out nullopt.
+void claimed_to_message(std::span<const Eigen::Vector3f> claimed, frame_done_object_t& msg);
+// The companion's motion of a model message or a frame_done_t entry (companion > 0: companion_motion;
+// 0: nullopt); an error names what is wrong (a negative companion, the object itself, a non-finite
+// motion), out nullopt.
 std::optional<std::string> companion_from_message(const object_model_t& msg, std::optional<PoseVector>& out);
+std::optional<std::string> companion_from_message(const frame_done_object_t& msg, std::optional<PoseVector>& out);
 
 }  // namespace mfot::service

@@ -12,6 +12,7 @@
 #include <utility>
 
 namespace mfot {
+class frame_done_t;
 class frame_t;
 class heartbeat_t;
 class object_model_t;
@@ -25,12 +26,17 @@ namespace mfot::service {
 namespace channel {
 inline constexpr const char* kFrame = "MFOT_FRAME";                // frame_t, capture -> preprocess, merger
 inline constexpr const char* kScene = "MFOT_SCENE";                // scene_cloud_t, preprocess -> trackers, merger
-inline constexpr const char* kModel = "MFOT_MODEL";                // object_model_t, merger -> trackers
+// object_model_t, merger -> one tracker: MFOT_MODEL_<worker_id> (model_channel), so a worker receives
+// and decodes only the models addressed to it; the merger sends a model when it changes or is (re)assigned.
+inline constexpr const char* kModelPrefix = "MFOT_MODEL_";
+inline constexpr const char* kFrameDone = "MFOT_FRAME_DONE";       // frame_done_t, merger -> trackers, every frame
 inline constexpr const char* kEstimate = "MFOT_ESTIMATE";          // tracker_estimate_t, trackers -> merger
 inline constexpr const char* kPoses = "MFOT_POSES";                // poses_t, merger -> controllers (and lockstep)
 inline constexpr const char* kSegmentation = "MFOT_SEGMENTATION";  // segmentation_t, merger -> anyone
 inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_t, trackers -> merger
 inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
+// The channel of the models for worker `worker_id` (>= 0).
+inline std::string model_channel(std::int32_t worker_id) { return kModelPrefix + std::to_string(worker_id); }
 }  // namespace channel
 
 // Lockstep sources (mfot-capture, also replaying a log) keep at most this many frames out whose poses have
@@ -77,6 +83,7 @@ class MalformedCounter {
 // when the elements cannot fit in the buffer (or a string length is below 1); they return true
 // (leaving it to decode) for a foreign fingerprint or a buffer too short to hold the count.
 // Types without arrays need none.
+bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_done_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const heartbeat_t*);
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*);

@@ -6,11 +6,17 @@
 //   2. objects without a live owner go to idle workers, who are sent their model (assign);
 //   3. while the oldest open frame is due (FrameAssembler::poll; lost scenes and models are sent
 //      again first): ObjectManager::process with the owners' estimates, then retirements are
-//      sent, idle workers take the new objects, every owner gets its object's model of this
-//      frame, and the frame's segmentation and poses go out (MergerSink::publish_frame).
+//      sent to their owners, idle workers take the new objects, an owner whose object's model
+//      changed (a new version) gets the model, the frame's end goes to every worker
+//      (frame_done_t: every object's owner and model version, and what its tracker needs beside
+//      the model), then the frame's segmentation and poses (MergerSink::publish_frame).
+// A model goes only to the worker it names (MergerSink::send_model's recipient); a tracker that
+// lacks the version frame_done_t lists waits, falls behind, and its heartbeats make the frame
+// assembler send the model again (FrameAssembler::poll).
 // What goes out is said to a MergerSink (the LCM main publishes it; tests record it). The clock is
 // passed in, so tests drive time.
 
+#include "mfot/frame_done_t.hpp"
 #include "mfot/object_manager.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_assembler.hpp"
@@ -57,10 +63,15 @@ class MergerSink {
 
   // The object's model and pose as of frame `frame_seq`, addressed to `worker_id` (its owner, or
   // -1: nobody owns it now) and that worker's process `worker_instance` (0 when unknown), with what
-  // the other objects claim near it (ObjectManager::claimed_points; empty when not asked for).
+  // the other objects claim near it (ObjectManager::claimed_points; empty when not asked for), for
+  // worker `recipient` (>= 0: the addressee, or a worker that holds the object without owning it).
   virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) = 0;
-  virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq) = 0;
+                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed,
+                          std::int32_t recipient) = 0;
+  // The object is gone, as of frame `frame_seq`; for worker `recipient` (>= 0), which holds it.
+  virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) = 0;
+  // The frame's end, for every worker; the sink stamps its utime.
+  virtual void send_frame_done(frame_done_t& message) = 0;
   // A scene as received, for workers that lost it.
   virtual void resend_scene(std::span<const std::uint8_t> message) = 0;
   virtual void publish_frame(const FinishedFrame& frame) = 0;
@@ -93,8 +104,17 @@ class MergerCore {
 
  private:
   void assign_idle_workers(Clock::time_point now);
-  void send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq);
+  void send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq, std::int32_t recipient);
   void finish_frame(Clock::time_point due_at);
+  void send_frame_done(std::int64_t frame_seq);
+
+  // The model last sent to an object's owner: a new owner, process or version is sent again.
+  struct ModelSent {
+    std::int32_t worker_id;
+    std::int64_t worker_instance;
+    std::int32_t version;
+    friend bool operator==(const ModelSent&, const ModelSent&) = default;
+  };
 
   ObjectManager manager_;
   WorkerPool workers_;
@@ -105,6 +125,8 @@ class MergerCore {
   float claimed_margin_;                   // MergerCoreOptions::claimed_margin
   std::vector<std::int32_t> object_ids_;  // scratch: the objects in id order
   std::vector<Eigen::Vector3f> claimed_;   // scratch: what the other objects claim near one
+  std::map<std::int32_t, ModelSent> models_sent_;  // by object id
+  frame_done_t frame_done_;                // reused every frame
 };
 
 }  // namespace mfot::service

@@ -1,11 +1,12 @@
 #pragma once
-// The merger's side of LCM: publishes what MergerCore says (models, retirements, re-sent scenes,
-// segmentation and poses), writes the run folder's results, keeps the frames the label images
+// The merger's side of LCM: publishes what MergerCore says (models, retirements, frame ends, re-sent
+// scenes, segmentation and poses), writes the run folder's results, keeps the frames the label images
 // need (MFOT_FRAME), and reports on MFOT_STATUS.
 
 #include "mfot/frame_t.hpp"
 #include "mfot/service/merger_core.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/pose_velocity.hpp"
 #include "mfot/service/run_outputs.hpp"
 #include "mfot/service/status.hpp"
 
@@ -25,9 +26,11 @@ class LcmMergerLink : public MergerSink {
   LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const MergerConfig& config,
                 const std::optional<std::string>& output_dir, bool append);
 
+  // Models and retirements go out on the recipient's channel (channel::model_channel).
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed) override;
-  void send_retirement(std::int32_t object_id, std::int64_t frame_seq) override;
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) override;
+  void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) override;
+  void send_frame_done(frame_done_t& message) override;
   void resend_scene(std::span<const std::uint8_t> message) override;
   void publish_frame(const FinishedFrame& frame) override;
   void note(const std::string& message) override { status_.set_message(message); }
@@ -41,7 +44,7 @@ class LcmMergerLink : public MergerSink {
   lcm::LCM& lcm_;
   StatusReporter& status_;
   Pose world_from_camera_;
-  float fps_;
+  PoseVelocityEstimator velocities_;  // MFOT_POSES velocities
   bool write_labels_;
   std::unique_ptr<RunOutputs> outputs_;
   std::map<std::int64_t, frame_t> frames_;  // by seq, for label images

@@ -41,6 +41,9 @@ class ObjectTracker {
   // what the likelihood throws, and nothing changes.
   bool set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose,
                  bool carried = false);
+  // The merger carried the hidden object held to `pose` (as set_model with `carried`, model kept):
+  // the whole particle set moves there.
+  void carry_to(const Pose& pose);
   // The object went to another tracker or was retired.
   void drop();
   // The other objects' model points at their last poses (camera frame), for the step's

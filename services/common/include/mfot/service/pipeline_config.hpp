@@ -39,7 +39,6 @@ struct MergerConfig {
   bool write_labels = true;
   bool fitting_distance = true;
   Pose world_from_camera;
-  float fps = 30.f;
   // MergerCoreOptions::claimed_margin: TrackingStepOptions::claimed_margin() of the tracker keys.
   float claimed_margin = 0.f;
 };

@@ -1,8 +1,8 @@
 #pragma once
 // A tracker worker's scenes, in frame order, each released for tracking only once the worker holds
 // its object's model of the frame before (thesis 3.3-3.4: the particle filter of frame s scores
-// against the model updated with frame s-1). The merger publishes every object's model with
-// frame_seq = the frame it last finished, before that frame's poses. In lockstep with a window of
+// against the model updated with frame s-1). The merger publishes every object's model of the frame it
+// last finished (a changed model itself, an unchanged one as its frame_done_t entry) before that frame's poses. In lockstep with a window of
 // one frame, scene s is published only after those poses, so the model of s-1 is always there
 // first; with a larger window (capture.lockstep_window) scenes run ahead of the models, and this
 // queue makes the worker wait for the model, so its results never depend on timing.
@@ -10,8 +10,8 @@
 //   1. add_scene: late, repeated and already finished scenes are refused; a scene far older than
 //      the newest one starts a new frame sequence (a restarted capture or replay); beyond
 //      max_scenes the oldest scene is dropped, and counted as skipped when an object is held;
-//   2. model_received / frame_finished: every MFOT_MODEL says the merger finished its frame, so
-//      scenes up to it are dropped; the worker's own object's model moves the model frame on
+//   2. model_received / frame_finished: every frame_done_t (and any model) says the merger finished
+//      its frame, so scenes up to it are dropped; the worker's own object's model moves the model frame on
 //      (an older or repeated one is refused), a new object starts from its model's frame;
 //   3. next: the oldest scene s is released when the held model is of the frame before it, i.e.
 //      of a frame >= every earlier frame this worker tracked, skipped or knows finished (s - 1
@@ -69,7 +69,7 @@ class TrackerSceneQueue {
   bool accepts_model(std::int32_t object_id, std::int64_t frame_seq) const;
   // The worker took that model.
   void model_received(std::int32_t object_id, std::int64_t frame_seq);
-  // Any other MFOT_MODEL (another worker's object, a retirement): the merger finished frame_seq.
+  // A frame_done_t, or a model not taken (another worker's object, a retirement): the merger finished frame_seq.
   void frame_finished(std::int64_t frame_seq);
   // The object was retired or moved to another worker; scenes stay queued for the next one.
   void object_dropped();

@@ -1,11 +1,16 @@
 #pragma once
 // A tracker worker's protocol, transport-free: it takes the messages a worker subscribes to
-// (MFOT_MODEL, MFOT_SCENE) as received bytes, validates them, and tracks the object the merger
-// assigned to it (ObjectTracker). Steps:
+// (MFOT_MODEL_<worker_id>, MFOT_FRAME_DONE, MFOT_SCENE) as received bytes, validates them, and
+// tracks the object the merger assigned to it (ObjectTracker). Steps:
 //   1. on_model: a model addressed to this worker id *and* this process (worker_instance) is taken
-//      (a new object starts a new filter; the grid is rebuilt only for a new version); any other
-//      model says the merger finished its frame, and takes away the object it names if this
-//      worker held it (moved to another worker, or retired);
+//      (a new object starts a new filter; the grid is rebuilt only for a new version); a model
+//      addressed to another says the merger finished its frame, and takes away the object it names
+//      if this worker held it (moved to another worker, or retired);
+//      on_frame_done: the merger finished a frame; the object held is dropped when the message
+//      gives it to another worker or does not list it (retired); the entry addressed to this
+//      worker, when it lists the model version held, stands for that model of this frame (pose of
+//      a carried object, companion's motion, claimed points). A version not held leaves the scenes
+//      waiting: this worker's heartbeats then show it behind, and the merger sends the model again;
 //   2. on_scene: scenes queue in frame order (TrackerSceneQueue) until this worker holds its
 //      object's model of the frame before;
 //   3. step: tracks every released scene and publishes each estimate; heartbeats every
@@ -13,6 +18,7 @@
 // What goes out is said to a TrackerSink (the LCM main publishes it; tests record it); the clock
 // is passed in.
 
+#include "mfot/frame_done_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/object_tracker.hpp"
@@ -56,6 +62,7 @@ class TrackerWorker {
   TrackerWorker& operator=(const TrackerWorker&) = delete;
 
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // Step 3; returns the frames tracked.
   int step();
@@ -75,7 +82,7 @@ class TrackerWorker {
   std::function<Clock::time_point()> clock_;
   ObjectTracker tracker_;
   TrackerSceneQueue scenes_;
-  std::vector<Eigen::Vector3f> claimed_;  // of the last model taken
+  std::vector<Eigen::Vector3f> claimed_;  // of the last model or frame_done_t entry taken
   Clock::time_point next_heartbeat_{};
   std::int64_t skipped_at_heartbeat_ = 0;
   std::int64_t reported_fallbacks_ = 0;
