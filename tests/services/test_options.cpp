@@ -5,6 +5,7 @@
 #include "mfot/service/config.hpp"
 #include "mfot/service/options.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/sim/simulator.hpp"
 
 #include <gtest/gtest.h>
 
@@ -106,6 +107,11 @@ TEST(Options, EveryDeclarationIsCompleteAndItsDefaultInRange) {
   }
   EXPECT_GT(options, 200);
   EXPECT_THROW((void)option_spec("tracker.no_such_key"), std::logic_error);
+}
+
+// capture.scenario's declared choices are the simulator's scenarios.
+TEST(Options, TheScenarioChoicesAreTheSimulatorsScenarios) {
+  EXPECT_EQ(option_choices(option_spec("capture.scenario")), sim::scenario_names());
 }
 
 // The text of a number for YAML, exact enough to land on the side of a bound it is meant to.

@@ -76,7 +76,7 @@ constexpr OptionEntry number_above(std::string_view key, std::string_view value,
 
 // clang-format off
 constexpr OptionEntry kTable[] = {
-    note("", "mfot's defaults: the one place every setting's default lives. The build embeds this file; a\nconfig of your own (--config) holds only what it changes and is laid over it, key by key. As\nshipped: the built-in `stack` simulator scenario through the whole process group on the CPU or\nGPU (auto). Every service reads its own section; unknown keys and out-of-range values are refused\nat start with the key and the allowed range.\nUnits: metres, radians, milliseconds unless a key says otherwise."),
+    note("", "mfot's defaults, generated from the option table (services/common/src/option_table.cpp) by\nmfot-config --print-defaults: change an option there, not here (tests/services/test_options.cpp\nfails while the two differ); docs/options.md lists the same. The build embeds this file; a\nconfig of your own (--config) holds only what it changes and is laid over it, key by key. As\nshipped: the built-in `stack` simulator scenario through the whole process group on the CPU or\nGPU (auto). Every service reads its own section; unknown keys and out-of-range values are refused\nat start with the key and the allowed range.\nUnits: metres, radians, milliseconds unless a key says otherwise."),
     blank(),
     mapping("group", "scripts/mfot-run only"),
     integer("group.workers", "6", "1", "64", "", "tracker worker pool size; objects beyond it wait (stale) for a free worker"),

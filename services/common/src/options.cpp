@@ -76,6 +76,7 @@ std::string markdown_cell(std::string_view text) {
   std::string out;
   for (const char c : text) {
     if (c == '|') out += "\\|";
+    else if (c == '<') out += "&lt;";
     else if (c == '\n') out += ' ';
     else out += c;
   }
@@ -158,7 +159,8 @@ std::string generate_options_markdown() {
       "Generated from services/common/src/option_table.cpp by `mfot-config --print-docs` (do not edit; "
       "tests/services/test_options.cpp checks it). configs/default.yaml is generated from the same table. "
       "Ranges are inclusive and are what the services accept: a value outside is refused at start with the "
-      "key and the range.\n";
+      "key and the range. Units: metres, radians, milliseconds unless the Unit column says otherwise. A config of "
+      "your own (--config) holds only what it changes and is laid over these defaults key by key.\n";
   bool in_table = false;
   bool intro = true;  // the table's first note is the file's header
   for (const auto& e : option_table()) {
