@@ -12,7 +12,7 @@
 namespace mfot {
 
 void CarryOptions::validate() const {
-  const auto in = [](const char* field, double value, double low, double high, bool low_open) {
+  const auto in = [](const char* field, auto value, double low, double high, bool low_open) {
     require_in_range("CarryOptions", field, value, low, high, low_open);
   };
   in("frames", frames, 0, 10000, false);

@@ -16,7 +16,7 @@
 namespace mfot {
 
 void JoinSplitOptions::validate() const {
-  const auto in = [](const char* field, double value, double low, double high, bool low_open) {
+  const auto in = [](const char* field, auto value, double low, double high, bool low_open) {
     require_in_range("JoinSplitOptions", field, value, low, high, low_open);
   };
   in("join_frames", join_frames, 0, 10000, false);

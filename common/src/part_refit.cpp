@@ -14,7 +14,7 @@
 namespace mfot {
 
 void PartRefitOptions::validate(const std::string& owner) const {
-  const auto check = [&](const char* field, double value, double low, double high) {
+  const auto check = [&](const char* field, auto value, double low, double high) {
     require_in_range(owner.c_str(), field, value, low, high, false);
   };
   check("min_points", min_points, 3, 1000000);

@@ -1,6 +1,7 @@
 #include "baseline_pipeline.hpp"
 
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/options.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -32,25 +33,25 @@ BaselineConfig load_baseline_config(const std::string& path) {
   BaselineConfig c;
   PclTrackerSettings& t = c.tracker;
   auto s = config_section(root, "pcl_baseline");
-  t.particles = s.get<int>("particles", 1, 100000);
-  t.max_particles = s.get<int>("max_particles", 1, 100000);
-  t.kld_delta = s.get<double>("kld_delta", 1e-6, 1.0 - 1e-6);
-  t.kld_epsilon = s.get<double>("kld_epsilon", 1e-6, 10.0);
-  t.bin_size = s.get<double>("bin_size", 1e-6, 10.0);
+  t.particles = read_option<int>(s, "particles");
+  t.max_particles = read_option<int>(s, "max_particles");
+  t.kld_delta = read_option<double>(s, "kld_delta");
+  t.kld_epsilon = read_option<double>(s, "kld_epsilon");
+  t.bin_size = read_option<double>(s, "bin_size");
   const auto to_array = [](const std::vector<double>& v) {
     std::array<double, 6> a{};
     std::copy(v.begin(), v.end(), a.begin());
     return a;
   };
-  t.step_noise_sigma = to_array(s.get_vector("step_noise_sigma", 6));
-  t.initial_noise_sigma = to_array(s.get_vector("initial_noise_sigma", 6));
-  t.iterations = s.get<int>("iterations", 1, 100);
-  t.color_weight = s.get<double>("color_weight", 0.0, 100.0);
-  t.max_distance = s.get<double>("max_distance", 1e-6, 1.0);
-  t.octree_resolution = s.get<double>("octree_resolution", 1e-4, 1.0);
-  t.reference_leaf = s.get<float>("reference_leaf", 0.f, 0.1f);
-  t.threads = s.get<int>("threads", 1, 256);
-  c.seed = static_cast<unsigned>(s.get<std::uint64_t>("seed", 0, 4294967295u));  // srand takes 32 bits
+  t.step_noise_sigma = to_array(read_list(s, "step_noise_sigma"));
+  t.initial_noise_sigma = to_array(read_list(s, "initial_noise_sigma"));
+  t.iterations = read_option<int>(s, "iterations");
+  t.color_weight = read_option<double>(s, "color_weight");
+  t.max_distance = read_option<double>(s, "max_distance");
+  t.octree_resolution = read_option<double>(s, "octree_resolution");
+  t.reference_leaf = read_option<float>(s, "reference_leaf");
+  t.threads = read_option<int>(s, "threads");
+  c.seed = static_cast<unsigned>(read_option<std::uint64_t>(s, "seed"));  // srand takes 32 bits
   s.finish();
   try {
     t.validate();  // cross-field rule: max_particles >= particles

@@ -55,7 +55,7 @@ SECTION_CASES = [
     ("preprocess", "preprocess:\n  crop_min: [0, 0, 2]\n  crop_max: [1, 1, 1]\n", ["preprocess:", "crop_min"]),
     ("tracker", "tracker:\n  particles: 0\n", ["tracker.particles", "out of range [1, 100000]"]),
     ("tracker", "tracker:\n  backend: opencl\n", ["tracker.backend", "'opencl'", "auto|cuda|cpu|point-to-point"]),
-    ("tracker", "tracker:\n  lambda: -1\n", ["tracker.lambda", "out of range [0.000000, 1000.000000]"]),
+    ("tracker", "tracker:\n  lambda: -1\n", ["tracker.lambda", "out of range (0.000000, 1000.000000]"]),
     ("merger", "merger:\n  alpha: 1.5\n", ["merger.alpha", "out of range [0.000000, 1.000000]"]),
     ("merger", "merger:\n  tau: 0\n", ["merger.tau", "out of range [0.000100, 0.100000]"]),
     ("merger", "merger:\n  world:\n    rotation: [2, 0, 0, 0]\n", ["merger.world", "unit quaternion"]),

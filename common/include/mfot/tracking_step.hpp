@@ -35,11 +35,12 @@ struct TrackingStepOptions {
   // Hypothesis points in front of the model at the last estimate (the hand over it) are left out
   // of the likelihood (OcclusionTest::remove_occluders); false = score them all (thesis).
   bool exclude_occluders = false;
-  // Holds last at most this many frames in a row [1, 100000]. A hold cannot tell a hidden object
-  // from one whose estimate slipped behind a surface (an object put down on another a few cm from
-  // where it was held): past this, the filter steps on every point in the margin, as in the
-  // thesis, until the share drops below hold_occluded_share again.
-  int max_hold_frames = 45;
+  // Holds last at most this many frames in a row [1, 100000] (90: 3 s at 30 fps; the shipped
+  // tracker.max_hold_frames). A hold cannot tell a hidden object from one whose estimate slipped
+  // behind a surface (an object put down on another a few cm from where it was held): past this, the
+  // filter steps on every point in the margin, as in the thesis, until the share drops below
+  // hold_occluded_share again.
+  int max_hold_frames = 90;
   // A frame in which, after the occluders and the claimed points are left out, fewer scene points
   // remain to score than this share of the model's points holds the filter too (departure from the
   // thesis): a hand covering a gripped box leaves a strip of its edge, on which the filter and its
@@ -75,7 +76,7 @@ struct TrackingStepOptions {
   // (README "Motion-model options"). Needs exclude_claimed_radius > 0 (else no object is known to be
   // isolated); equal to the filter's options = the thesis everywhere.
   bool follow_isolated = false;
-  StepMotion isolated_motion;
+  StepMotion isolated_motion{.predicted_fraction = 0.75f, .refine_rounds = 2};  // tracker.isolated_*
   // Every stepped frame's estimate refined on the model's surface (IcpRefinement on the points left
   // after the occluders and the claimed points are removed; iterations 0 = off, the thesis's weighted
   // mean); its dX then comes from the refined pose, and the particle set moves with it as far as the

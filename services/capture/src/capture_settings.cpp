@@ -4,6 +4,7 @@
 #include "mfot/capture/pcd_source.hpp"
 #include "mfot/capture/sim_source.hpp"
 #include "mfot/capture/tum_source.hpp"
+#include "mfot/service/options.hpp"
 #ifdef MFOT_HAVE_OPENNI2
 #include "mfot/capture/openni_source.hpp"
 #endif
@@ -15,6 +16,9 @@
 namespace mfot::capture {
 
 using service::ConfigError;
+using service::read_choice;
+using service::read_list;
+using service::read_option;
 
 void CaptureSettings::validate() const {
   const std::vector<std::string> sources = {"sim", "tum", "pcd", "oni", "openni2", "lcmlog"};
@@ -70,41 +74,41 @@ void CaptureSettings::validate() const {
 
 CaptureSettings load_capture_settings(service::ConfigSection section) {
   CaptureSettings s;
-  s.source = section.choice("source", {"sim", "tum", "pcd", "oni", "openni2", "lcmlog"});
-  s.rate = parse_rate_mode(section.choice("rate", {"realtime", "fast", "lockstep"}));
-  s.speed = section.get<double>("speed", 1e-3, 100.0);
-  s.lockstep_timeout_s = section.get<double>("lockstep_timeout_s", 1e-3, 3600.0);
-  s.lockstep_window = section.get<int>("lockstep_window", 1, service::kMaxLockstepWindow);
-  s.max_frames = section.get<long>("max_frames", 0L, std::numeric_limits<long>::max());
-  s.start_frame = section.get<long>("start_frame", 0L, std::numeric_limits<long>::max());
-  s.loop = section.get<bool>("loop");
-  s.groundtruth_dir = section.get<std::string>("groundtruth_dir");
+  s.source = read_choice(section, "source");
+  s.rate = parse_rate_mode(read_choice(section, "rate"));
+  s.speed = read_option<double>(section, "speed");
+  s.lockstep_timeout_s = read_option<double>(section, "lockstep_timeout_s");
+  s.lockstep_window = read_option<int>(section, "lockstep_window");
+  s.max_frames = read_option<long>(section, "max_frames");
+  s.start_frame = read_option<long>(section, "start_frame");
+  s.loop = read_option<bool>(section, "loop");
+  s.groundtruth_dir = read_option<std::string>(section, "groundtruth_dir");
 
   s.encoding.depth =
-      service::parse_depth_encoding(section.choice("depth_encoding", {"raw", "zlib", "rvl"}));
+      service::parse_depth_encoding(read_choice(section, "depth_encoding"));
   s.encoding.color = service::parse_color_encoding(
-      section.choice("color_encoding", {"raw", "jpeg", "png"}));
-  s.encoding.jpeg_quality = section.get<int>("jpeg_quality", 1, 100);
-  s.encoding.zlib_level = section.get<int>("zlib_level", 0, 9);
+      read_choice(section, "color_encoding"));
+  s.encoding.jpeg_quality = read_option<int>(section, "jpeg_quality");
+  s.encoding.zlib_level = read_option<int>(section, "zlib_level");
 
-  s.scenario = section.choice("scenario", sim::scenario_names());
-  s.seed = section.get<unsigned long>("seed");
-  s.sim_frames = section.get<int>("sim_frames", 0, 1000000);
-  s.sim_noise = section.get<bool>("sim_noise");
-  s.sim_objects = section.get<int>("sim_objects", 1, 16);
+  s.scenario = read_choice(section, "scenario");
+  s.seed = read_option<unsigned long>(section, "seed");
+  s.sim_frames = read_option<int>(section, "sim_frames");
+  s.sim_noise = read_option<bool>(section, "sim_noise");
+  s.sim_objects = read_option<int>(section, "sim_objects");
 
-  s.tum_folder = section.get<std::string>("folder");
-  s.depth_scale = section.get<double>("depth_scale", 1e-3, 1e9);
-  s.max_time_difference_s = section.get<double>("max_time_difference_s", 1e-6, 10.0);
-  const auto intrinsics = section.get_vector("tum_intrinsics", 4);
+  s.tum_folder = read_option<std::string>(section, "folder");
+  s.depth_scale = read_option<double>(section, "depth_scale");
+  s.max_time_difference_s = read_option<double>(section, "max_time_difference_s");
+  const auto intrinsics = read_list(section, "tum_intrinsics");
   for (std::size_t i = 0; i < 4; ++i) s.tum_intrinsics[i] = static_cast<float>(intrinsics[i]);
 
-  s.pcd_fps = section.get<double>("pcd_fps", 1e-3, 1000.0);
-  s.pcd_background_label_max = section.get<unsigned long>("pcd_background_label_max", 0UL, 65534UL);
-  s.log_file = section.get<std::string>("log_file");
-  s.oni_file = section.get<std::string>("oni_file");
-  s.device_uri = section.get<std::string>("device_uri");
-  s.reopen_max_backoff_s = section.get<double>("reopen_max_backoff_s", 0.5, 600.0);
+  s.pcd_fps = read_option<double>(section, "pcd_fps");
+  s.pcd_background_label_max = read_option<unsigned long>(section, "pcd_background_label_max");
+  s.log_file = read_option<std::string>(section, "log_file");
+  s.oni_file = read_option<std::string>(section, "oni_file");
+  s.device_uri = read_option<std::string>(section, "device_uri");
+  s.reopen_max_backoff_s = read_option<double>(section, "reopen_max_backoff_s");
 
   section.finish();
   return s;

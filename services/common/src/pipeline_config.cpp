@@ -1,6 +1,7 @@
 #include "mfot/service/pipeline_config.hpp"
 
 #include "mfot/service/convert.hpp"
+#include "mfot/service/options.hpp"
 
 #include <algorithm>
 #include <numbers>
@@ -28,22 +29,22 @@ int auto_preprocess_threads() {
 // re-identification registration), the hypothesis margin and the claim radius (what it sends with
 // each model), and the two settings carry mode needs off; read the same way, with the same ranges, by
 // both loaders.
-float read_cell_size(ConfigSection& tracker) { return tracker.get<float>("cell_size", 0.001f, 0.2f); }
+float read_cell_size(ConfigSection& tracker) { return read_option<float>(tracker, "cell_size"); }
 
-float read_hypothesis_margin(ConfigSection& tracker) { return tracker.get<float>("hypothesis_margin", 0.f, 1.f); }
-float read_claim_radius(ConfigSection& tracker) { return tracker.get<float>("exclude_claimed_radius", 0.f, 0.1f); }
+float read_hypothesis_margin(ConfigSection& tracker) { return read_option<float>(tracker, "hypothesis_margin"); }
+float read_claim_radius(ConfigSection& tracker) { return read_option<float>(tracker, "exclude_claimed_radius"); }
 float read_last_pose_check_share(ConfigSection& tracker) {
-  return tracker.get<float>("last_pose_check_occluded_share", 0.f, 1.f);
+  return read_option<float>(tracker, "last_pose_check_occluded_share");
 }
 float read_particles_follow(ConfigSection& tracker) {
-  return tracker.get<float>("particles_follow_refinement", 0.f, 1.f);
+  return read_option<float>(tracker, "particles_follow_refinement");
 }
 
 EstimateFitOptions read_fit_options(ConfigSection& tracker) {
   EstimateFitOptions fit;
-  fit.match_distance = tracker.get<float>("confidence_match_distance", 1e-4f, 0.1f);
-  fit.claim_margin = tracker.get<float>("confidence_claim_margin", 0.f, 0.1f);
-  fit.min_claimed_points = tracker.get<int>("confidence_min_points", 1, 1000000);
+  fit.match_distance = read_option<float>(tracker, "confidence_match_distance");
+  fit.claim_margin = read_option<float>(tracker, "confidence_claim_margin");
+  fit.min_claimed_points = read_option<int>(tracker, "confidence_min_points");
   return fit;
 }
 
@@ -53,31 +54,31 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   PreprocessConfig config;
   PreprocessorOptions& o = config.preprocessor;
   auto s = config_section(root, "preprocess");
-  o.crop_min = vector3(s.get_vector("crop_min", 3));
-  o.crop_max = vector3(s.get_vector("crop_max", 3));
-  o.remove_plane = s.get<bool>("remove_plane");
-  o.plane_fit.iterations = s.get<int>("ransac_iterations", 1, 100000);
-  o.plane_fit.sample_points = s.get<int>("ransac_sample_points", 3, 1000000);
-  o.plane_fit.inlier_distance = s.get<float>("plane_inlier_distance", 1e-4f, 0.5f);
-  o.plane_fit.min_inlier_share = s.get<float>("plane_min_inlier_share", 1e-3f, 1.f);
-  o.plane_fit.seed = s.get<std::uint64_t>("seed");
-  o.plane_margin = s.get<float>("plane_margin", 0.f, 0.5f);
-  o.plane_margin_sigmas = s.get<float>("plane_margin_sigmas", 0.f, 10.f);
-  const auto sigma = s.get_vector("depth_sigma", 3);
+  o.crop_min = vector3(read_list(s, "crop_min"));
+  o.crop_max = vector3(read_list(s, "crop_max"));
+  o.remove_plane = read_option<bool>(s, "remove_plane");
+  o.plane_fit.iterations = read_option<int>(s, "ransac_iterations");
+  o.plane_fit.sample_points = read_option<int>(s, "ransac_sample_points");
+  o.plane_fit.inlier_distance = read_option<float>(s, "plane_inlier_distance");
+  o.plane_fit.min_inlier_share = read_option<float>(s, "plane_min_inlier_share");
+  o.plane_fit.seed = read_option<std::uint64_t>(s, "seed");
+  o.plane_margin = read_option<float>(s, "plane_margin");
+  o.plane_margin_sigmas = read_option<float>(s, "plane_margin_sigmas");
+  const auto sigma = read_list(s, "depth_sigma");
   o.depth_sigma = Eigen::Vector3f(static_cast<float>(sigma[0]), static_cast<float>(sigma[1]), static_cast<float>(sigma[2]));
-  o.table_prism = s.get<bool>("table_prism");
-  o.prism_min_share = s.get<float>("prism_min_share", 0.001f, 1.f);
-  o.plane_keep_ratio = s.get<float>("plane_keep_ratio", 1e-3f, 1.f);
-  o.voxel_size = s.get<float>("voxel_size", 1e-4f, 1.f);
-  o.voxel_jitter = s.get<bool>("voxel_jitter");
+  o.table_prism = read_option<bool>(s, "table_prism");
+  o.prism_min_share = read_option<float>(s, "prism_min_share");
+  o.plane_keep_ratio = read_option<float>(s, "plane_keep_ratio");
+  o.voxel_size = read_option<float>(s, "voxel_size");
+  o.voxel_jitter = read_option<bool>(s, "voxel_jitter");
   o.voxel_jitter_seed = o.plane_fit.seed;
-  o.cluster = s.get<bool>("cluster");
-  o.cluster_tolerance = s.get<float>("cluster_tolerance", 1e-4f, 1.f);
-  o.cluster_min_size = s.get<int>("cluster_min_size", 1, 10000000);
-  o.cluster_max_size = s.get<int>("cluster_max_size", 1, 10000000);
-  const int threads = s.get<int>("threads", 0, 64);
+  o.cluster = read_option<bool>(s, "cluster");
+  o.cluster_tolerance = read_option<float>(s, "cluster_tolerance");
+  o.cluster_min_size = read_option<int>(s, "cluster_min_size");
+  o.cluster_max_size = read_option<int>(s, "cluster_max_size");
+  const int threads = read_option<int>(s, "threads");
   o.threads = threads > 0 ? threads : auto_preprocess_threads();
-  config.queue_frames = s.get<int>("queue_frames", 1, 64);
+  config.queue_frames = read_option<int>(s, "queue_frames");
   s.finish();
   try {
     o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
@@ -90,64 +91,64 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
 TrackerConfig load_tracker_config(const YAML::Node& root) {
   TrackerConfig c;
   auto s = config_section(root, "tracker");
-  c.likelihood.backend = parse_likelihood_backend(s.choice("backend", {"auto", "cuda", "cpu", "point-to-point"}));
-  c.likelihood.cpu_threads = s.get<int>("threads", 1, 256);
-  c.likelihood.cuda_device = s.get<int>("cuda_device", 0, 64);
+  c.likelihood.backend = parse_likelihood_backend(read_choice(s, "backend"));
+  c.likelihood.cpu_threads = read_option<int>(s, "threads");
+  c.likelihood.cuda_device = read_option<int>(s, "cuda_device");
   c.likelihood.grid.cell_size = read_cell_size(s);
-  c.filter.num_particles = s.get<int>("particles", 1, 100000);
-  c.filter.lambda = s.get<float>("lambda", 0.f, 1000.f);
-  c.filter.seed = s.get<std::uint64_t>("seed");
-  const std::string resampling = s.choice("resampling", {"multinomial", "systematic"});
+  c.filter.num_particles = read_option<int>(s, "particles");
+  c.filter.lambda = read_option<float>(s, "lambda");
+  c.filter.seed = read_option<std::uint64_t>(s, "seed");
+  const std::string resampling = read_choice(s, "resampling");
   c.filter.resampling = resampling == "systematic" ? ResamplingScheme::kSystematic : ResamplingScheme::kMultinomial;
-  const auto sigma = s.get_vector("init_sigma", 6);
+  const auto sigma = read_list(s, "init_sigma");
   for (int i = 0; i < 6; ++i) c.filter.init_sigma[i] = static_cast<float>(sigma[static_cast<std::size_t>(i)]);
-  c.filter.a = s.get<float>("diffusion_a", 0.f, 100.f);
-  c.filter.b = s.get<float>("diffusion_b", 0.f, 100.f);
-  c.filter.predicted_fraction = s.get<float>("predicted_fraction", 0.f, 1.f);
-  c.filter.companion_fraction = s.get<float>("companion_fraction", 0.f, 1.f);
+  c.filter.a = read_option<float>(s, "diffusion_a");
+  c.filter.b = read_option<float>(s, "diffusion_b");
+  c.filter.predicted_fraction = read_option<float>(s, "predicted_fraction");
+  c.filter.companion_fraction = read_option<float>(s, "companion_fraction");
   c.filter.follow_replaced_estimate = read_particles_follow(s);
-  c.filter.anneal_iterations = s.get<int>("anneal_iterations", 1, 10);
-  c.filter.anneal_shrink = s.get<float>("anneal_shrink", 0.01f, 1.f);
-  c.filter.refine_rounds = s.get<int>("refine_rounds", 0, 20);
-  c.filter.refine_translation = s.get<float>("refine_translation", 0.f, 0.1f);
-  c.filter.refine_rotation = s.get<float>("refine_rotation", 0.f, 0.5f);
+  c.filter.anneal_iterations = read_option<int>(s, "anneal_iterations");
+  c.filter.anneal_shrink = read_option<float>(s, "anneal_shrink");
+  c.filter.refine_rounds = read_option<int>(s, "refine_rounds");
+  c.filter.refine_translation = read_option<float>(s, "refine_translation");
+  c.filter.refine_rotation = read_option<float>(s, "refine_rotation");
   c.step.hypothesis.margin = read_hypothesis_margin(s);
-  c.step.hold_occluded_share = s.get<float>("hold_occluded_share", 0.f, 1.f);
-  c.step.max_hold_frames = s.get<int>("max_hold_frames", 1, 100000);
-  c.step.hold_min_scored_share = s.get<float>("hold_min_scored_share", 0.f, 1.f);
-  c.step.exclude_occluders = s.get<bool>("exclude_occluders");
-  c.step.occlusion.depth_margin = s.get<float>("occluder_depth_margin", 0.f, 1.f);
-  c.step.occlusion.window = s.get<float>("occlusion_window", 1e-4f, 0.1f);
+  c.step.hold_occluded_share = read_option<float>(s, "hold_occluded_share");
+  c.step.max_hold_frames = read_option<int>(s, "max_hold_frames");
+  c.step.hold_min_scored_share = read_option<float>(s, "hold_min_scored_share");
+  c.step.exclude_occluders = read_option<bool>(s, "exclude_occluders");
+  c.step.occlusion.depth_margin = read_option<float>(s, "occluder_depth_margin");
+  c.step.occlusion.window = read_option<float>(s, "occlusion_window");
   c.step.occlusion.own_surface_radius =
-      s.get<float>("own_surface_radius", 0.f, 0.1f);
+      read_option<float>(s, "own_surface_radius");
   c.step.fit = read_fit_options(s);
-  c.step.hold_confidence_half_life = s.get<float>("confidence_hold_half_life", 1.f, 100000.f);
-  c.step.confidence_seen_through_weight = s.get<float>("confidence_seen_through_weight", 0.f, 100.f);
+  c.step.hold_confidence_half_life = read_option<float>(s, "confidence_hold_half_life");
+  c.step.confidence_seen_through_weight = read_option<float>(s, "confidence_seen_through_weight");
   c.step.exclude_claimed_radius = read_claim_radius(s);
-  c.step.follow_isolated = s.get<bool>("follow_isolated");
-  c.step.isolated_motion.predicted_fraction = s.get<float>("isolated_predicted_fraction", 0.f, 1.f);
-  c.step.isolated_motion.refine_rounds = s.get<int>("isolated_refine_rounds", 0, 20);
-  c.step.icp.iterations = s.get<int>("icp_iterations", 0, 50);
-  c.step.icp.max_distance = s.get<float>("icp_max_distance", 1e-4f, 0.1f);
-  c.step.isolated_icp_max_distance = s.get<float>("isolated_icp_max_distance", 0.f, 0.1f);
-  c.step.icp.min_paired_share = s.get<float>("icp_min_paired_share", 0.f, 1.f);
-  c.step.icp.max_translation = s.get<float>("icp_max_translation", 0.f, 1.f);
-  c.step.icp.max_rotation = s.get<float>("icp_max_rotation", 0.f, 3.14159f);
-  c.step.icp.max_points = s.get<int>("icp_max_points", 3, 1000000);
-  c.step.icp.final_iterations = s.get<int>("icp_final_iterations", 0, 50);
-  c.step.icp.final_points = s.get<int>("icp_final_points", 3, 1000000);
-  c.step.icp.anchor_weight = s.get<float>("icp_anchor_weight", 1.f, 1000.f);
+  c.step.follow_isolated = read_option<bool>(s, "follow_isolated");
+  c.step.isolated_motion.predicted_fraction = read_option<float>(s, "isolated_predicted_fraction");
+  c.step.isolated_motion.refine_rounds = read_option<int>(s, "isolated_refine_rounds");
+  c.step.icp.iterations = read_option<int>(s, "icp_iterations");
+  c.step.icp.max_distance = read_option<float>(s, "icp_max_distance");
+  c.step.isolated_icp_max_distance = read_option<float>(s, "isolated_icp_max_distance");
+  c.step.icp.min_paired_share = read_option<float>(s, "icp_min_paired_share");
+  c.step.icp.max_translation = read_option<float>(s, "icp_max_translation");
+  c.step.icp.max_rotation = read_option<float>(s, "icp_max_rotation");
+  c.step.icp.max_points = read_option<int>(s, "icp_max_points");
+  c.step.icp.final_iterations = read_option<int>(s, "icp_final_iterations");
+  c.step.icp.final_points = read_option<int>(s, "icp_final_points");
+  c.step.icp.anchor_weight = read_option<float>(s, "icp_anchor_weight");
   c.step.last_pose_check_occluded_share = read_last_pose_check_share(s);
-  c.step.last_pose_check_points = s.get<int>("last_pose_check_points", 3, 1000000);
-  c.step.last_pose_check_margin = s.get<float>("last_pose_check_margin", 0.f, 0.99f);
-  c.step.companion_pose_check = s.get<bool>("companion_pose_check");
-  c.step.companion_turn_min = s.get<float>("companion_turn_min_deg", 0.f, 180.f) * kRadiansPerDegree;
-  c.step.companion_turn_min_cosine = s.get<float>("companion_turn_min_cosine", -1.f, 1.f);
-  c.step.companion_turn_max_kept = s.get<float>("companion_turn_max_kept", 0.f, 1.f);
-  c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
-  c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
+  c.step.last_pose_check_points = read_option<int>(s, "last_pose_check_points");
+  c.step.last_pose_check_margin = read_option<float>(s, "last_pose_check_margin");
+  c.step.companion_pose_check = read_option<bool>(s, "companion_pose_check");
+  c.step.companion_turn_min = read_option<float>(s, "companion_turn_min_deg") * kRadiansPerDegree;
+  c.step.companion_turn_min_cosine = read_option<float>(s, "companion_turn_min_cosine");
+  c.step.companion_turn_max_kept = read_option<float>(s, "companion_turn_max_kept");
+  c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
+  c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
   c.scenes.model_wait =
-      std::chrono::milliseconds(s.get<int>("model_wait_ms", 1, 600000));
+      std::chrono::milliseconds(read_option<int>(s, "model_wait_ms"));
   s.finish();
   try {
     const ParticleFilter validate_only(c.filter);  // the filter and the step validate their options
@@ -161,24 +162,24 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
 MergerConfig load_merger_config(const YAML::Node& root) {
   MergerConfig c;
   auto s = config_section(root, "merger");
-  c.manager.segmentation.tau = s.get<float>("tau", 1e-4f, 0.1f);
-  c.manager.model_update.alpha = s.get<float>("alpha", 0.f, 1.f);
-  c.manager.model_update.seen_radius = s.get<float>("seen_radius", 0.f, 0.1f);
-  c.manager.model_update.seed = s.get<std::uint64_t>("seed");
-  c.manager.min_object_points = s.get<std::size_t>("min_object_points", 1, 100000);
-  c.manager.max_model_points = s.get<std::size_t>("max_model_points", 1, 100000);
-  c.manager.growth_frames = s.get<int>("growth_frames", 0, 100000);
-  c.manager.propagation_radius = s.get<float>("propagation_radius", 0.f, 0.1f);
-  c.manager.propagation_min_seed_share = s.get<float>("propagation_min_seed_share", 0.f, 1.f);
-  c.manager.reidentify_frames = s.get<int>("reidentify_frames", 0, 1000000);
-  c.manager.reidentify_similarity = s.get<float>("reidentify_similarity", 1e-3f, 1.f);
-  c.manager.reidentify_register = s.get<bool>("reidentify_register");
-  c.manager.reidentify_grown = s.get<bool>("reidentify_grown");
-  c.manager.reidentify_grown_min_share = s.get<float>("reidentify_grown_min_share", 0.f, 1.f);
-  c.manager.registration.rotations = s.get<int>("reidentify_rotations", 1, 100000);
-  c.manager.registration.candidates = s.get<int>("reidentify_candidates", 1, 64);
-  c.manager.registration.refine_rounds = s.get<int>("reidentify_refine_rounds", 0, 100);
-  c.manager.registration.min_fit = s.get<float>("reidentify_min_fit", 0.f, 1.f);
+  c.manager.segmentation.tau = read_option<float>(s, "tau");
+  c.manager.model_update.alpha = read_option<float>(s, "alpha");
+  c.manager.model_update.seen_radius = read_option<float>(s, "seen_radius");
+  c.manager.model_update.seed = read_option<std::uint64_t>(s, "seed");
+  c.manager.min_object_points = read_option<std::size_t>(s, "min_object_points");
+  c.manager.max_model_points = read_option<std::size_t>(s, "max_model_points");
+  c.manager.growth_frames = read_option<int>(s, "growth_frames");
+  c.manager.propagation_radius = read_option<float>(s, "propagation_radius");
+  c.manager.propagation_min_seed_share = read_option<float>(s, "propagation_min_seed_share");
+  c.manager.reidentify_frames = read_option<int>(s, "reidentify_frames");
+  c.manager.reidentify_similarity = read_option<float>(s, "reidentify_similarity");
+  c.manager.reidentify_register = read_option<bool>(s, "reidentify_register");
+  c.manager.reidentify_grown = read_option<bool>(s, "reidentify_grown");
+  c.manager.reidentify_grown_min_share = read_option<float>(s, "reidentify_grown_min_share");
+  c.manager.registration.rotations = read_option<int>(s, "reidentify_rotations");
+  c.manager.registration.candidates = read_option<int>(s, "reidentify_candidates");
+  c.manager.registration.refine_rounds = read_option<int>(s, "reidentify_refine_rounds");
+  c.manager.registration.min_fit = read_option<float>(s, "reidentify_min_fit");
   c.manager.registration.seed = c.manager.model_update.seed;
   {
     // The registration scores and checks like the trackers: their JCSD cell and confidence.
@@ -191,66 +192,66 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     step.exclude_claimed_radius = read_claim_radius(tracker);
     c.claimed_margin = step.claimed_margin();
   }
-  c.manager.new_objects.confirm_frames = s.get<int>("new_object_frames", 1, 1000);
-  c.manager.new_objects.min_unassigned_share = s.get<float>("new_object_unassigned_share", 0.01f, 1.f);
-  c.manager.support.min_points = s.get<std::size_t>("retire_min_points", 0, 100000);
-  c.manager.support.max_frames = s.get<int>("retire_frames", 1, 10000);
+  c.manager.new_objects.confirm_frames = read_option<int>(s, "new_object_frames");
+  c.manager.new_objects.min_unassigned_share = read_option<float>(s, "new_object_unassigned_share");
+  c.manager.support.min_points = read_option<std::size_t>(s, "retire_min_points");
+  c.manager.support.max_frames = read_option<int>(s, "retire_frames");
   c.manager.hidden_occluded_share =
-      s.get<float>("hidden_occluded_share", 0.f, 1.f);
-  c.manager.held_birth_margin = s.get<float>("new_object_held_margin", 0.f, 0.5f);
+      read_option<float>(s, "hidden_occluded_share");
+  c.manager.held_birth_margin = read_option<float>(s, "new_object_held_margin");
   c.manager.occlusion.depth_margin =
-      s.get<float>("hidden_depth_margin", 0.f, 1.f);
-  c.estimate_timeout_ms = s.get<int>("estimate_timeout_ms", 1, 600000);
-  c.worker_timeout_ms = s.get<int>("worker_timeout_ms", 100, 600000);
-  c.expected_workers = s.get<int>("expected_workers", 0, 1000);
-  c.startup_timeout_ms = s.get<int>("startup_timeout_ms", 0, 600000);
-  c.write_labels = s.get<bool>("write_labels");
-  c.fitting_distance = s.get<bool>("fitting_distance");
+      read_option<float>(s, "hidden_depth_margin");
+  c.estimate_timeout_ms = read_option<int>(s, "estimate_timeout_ms");
+  c.worker_timeout_ms = read_option<int>(s, "worker_timeout_ms");
+  c.expected_workers = read_option<int>(s, "expected_workers");
+  c.startup_timeout_ms = read_option<int>(s, "startup_timeout_ms");
+  c.write_labels = read_option<bool>(s, "write_labels");
+  c.fitting_distance = read_option<bool>(s, "fitting_distance");
   auto discovery = s.section("discovery");
   try {
-    c.manager.discovery.method = parse_discovery_method(discovery.get<std::string>("method"));
+    c.manager.discovery.method = parse_discovery_method(read_option<std::string>(discovery, "method"));
   } catch (const std::invalid_argument& e) {
     throw ConfigError("merger.discovery.method: " + std::string(e.what()));
   }
-  c.manager.discovery.voxel_resolution = discovery.get<float>("voxel_resolution", 1e-4f, 0.1f);
-  c.manager.discovery.seed_resolution = discovery.get<float>("seed_resolution", 1e-4f, 0.5f);
-  c.manager.discovery.color_importance = discovery.get<float>("color_importance", 0.f, 100.f);
-  c.manager.discovery.spatial_importance = discovery.get<float>("spatial_importance", 0.f, 100.f);
-  c.manager.discovery.normal_importance = discovery.get<float>("normal_importance", 0.f, 100.f);
-  c.manager.discovery.concavity_tolerance_deg = discovery.get<float>("concavity_tolerance_deg", 0.1f, 90.f);
-  c.manager.discovery.smoothness_threshold = discovery.get<float>("smoothness_threshold", 0.f, 1.f);
-  c.manager.discovery.extended_convexity = discovery.get<bool>("extended_convexity");
-  c.manager.discovery.sanity_criterion = discovery.get<bool>("sanity_criterion");
-  c.manager.discovery.min_part_points = discovery.get<int>("min_part_points", 1, 100000);
-  c.manager.discovery.confirm_frames = discovery.get<int>("confirm_frames", 0, 1000);
-  c.manager.discovery.confirm_votes = discovery.get<int>("confirm_votes", 1, 1000);
-  c.manager.discovery.confirm_max_motion = discovery.get<float>("confirm_max_motion", 1e-4f, 1.f);
-  c.manager.discovery.confirm_join = discovery.get<bool>("confirm_join");
-  c.manager.discovery.boundary.radius = discovery.get<float>("boundary_radius", 0.f, 0.2f);
-  c.manager.discovery.boundary.min_color_ratio = discovery.get<float>("boundary_color_ratio", 1.001f, 1e6f);
+  c.manager.discovery.voxel_resolution = read_option<float>(discovery, "voxel_resolution");
+  c.manager.discovery.seed_resolution = read_option<float>(discovery, "seed_resolution");
+  c.manager.discovery.color_importance = read_option<float>(discovery, "color_importance");
+  c.manager.discovery.spatial_importance = read_option<float>(discovery, "spatial_importance");
+  c.manager.discovery.normal_importance = read_option<float>(discovery, "normal_importance");
+  c.manager.discovery.concavity_tolerance_deg = read_option<float>(discovery, "concavity_tolerance_deg");
+  c.manager.discovery.smoothness_threshold = read_option<float>(discovery, "smoothness_threshold");
+  c.manager.discovery.extended_convexity = read_option<bool>(discovery, "extended_convexity");
+  c.manager.discovery.sanity_criterion = read_option<bool>(discovery, "sanity_criterion");
+  c.manager.discovery.min_part_points = read_option<int>(discovery, "min_part_points");
+  c.manager.discovery.confirm_frames = read_option<int>(discovery, "confirm_frames");
+  c.manager.discovery.confirm_votes = read_option<int>(discovery, "confirm_votes");
+  c.manager.discovery.confirm_max_motion = read_option<float>(discovery, "confirm_max_motion");
+  c.manager.discovery.confirm_join = read_option<bool>(discovery, "confirm_join");
+  c.manager.discovery.boundary.radius = read_option<float>(discovery, "boundary_radius");
+  c.manager.discovery.boundary.min_color_ratio = read_option<float>(discovery, "boundary_color_ratio");
   discovery.finish();
   auto& js = c.manager.join_split;
-  js.join_frames = s.get<int>("join_frames", 0, 10000);
-  js.join_translation = s.get<float>("join_translation", 1e-4f, 0.1f);
-  js.join_rotation_deg = s.get<float>("join_rotation_deg", 0.1f, 45.f);
-  js.join_min_motion = s.get<float>("join_min_motion", 1e-3f, 1.f);
-  js.join_min_turn_deg = s.get<float>("join_min_turn_deg", 0.1f, 180.f);
-  js.join_contact_distance = s.get<float>("join_contact_distance", 1e-3f, 0.1f);
-  js.split_frames = s.get<int>("split_frames", 0, 10000);
-  js.split_min_share = s.get<float>("split_min_share", 0.01f, 0.5f);
-  js.split_min_gap = s.get<float>("split_min_gap", 0.f, 1.f);
-  js.split_max_occluded = s.get<float>("split_max_occluded", 0.f, 1.f);
-  js.split_min_departure = s.get<float>("split_min_departure", 0.f, 1.f);
+  js.join_frames = read_option<int>(s, "join_frames");
+  js.join_translation = read_option<float>(s, "join_translation");
+  js.join_rotation_deg = read_option<float>(s, "join_rotation_deg");
+  js.join_min_motion = read_option<float>(s, "join_min_motion");
+  js.join_min_turn_deg = read_option<float>(s, "join_min_turn_deg");
+  js.join_contact_distance = read_option<float>(s, "join_contact_distance");
+  js.split_frames = read_option<int>(s, "split_frames");
+  js.split_min_share = read_option<float>(s, "split_min_share");
+  js.split_min_gap = read_option<float>(s, "split_min_gap");
+  js.split_max_occluded = read_option<float>(s, "split_max_occluded");
+  js.split_min_departure = read_option<float>(s, "split_min_departure");
   auto carry = s.section("carry");
-  c.manager.carry.frames = carry.get<int>("frames", 0, 10000);
-  c.manager.carry.translation = carry.get<float>("translation", 1e-4f, 0.5f);
-  c.manager.carry.rotation_deg = carry.get<float>("rotation_deg", 0.1f, 90.f);
-  c.manager.carry.min_motion = carry.get<float>("min_motion", 1e-3f, 1.f);
-  c.manager.carry.min_turn_deg = carry.get<float>("min_turn_deg", 0.1f, 180.f);
-  c.manager.carry.contact_distance = carry.get<float>("contact_distance", 1e-3f, 0.1f);
-  c.manager.carry.seen_through_share = carry.get<float>("seen_through_share", 0.f, 1.f);
-  c.manager.carry.carried_seen_through_share = carry.get<float>("carried_seen_through_share", 0.f, 1.f);
-  c.manager.carry.gripped_away = carry.choice("gripped_away", {"carry", "retire"}) == "retire"
+  c.manager.carry.frames = read_option<int>(carry, "frames");
+  c.manager.carry.translation = read_option<float>(carry, "translation");
+  c.manager.carry.rotation_deg = read_option<float>(carry, "rotation_deg");
+  c.manager.carry.min_motion = read_option<float>(carry, "min_motion");
+  c.manager.carry.min_turn_deg = read_option<float>(carry, "min_turn_deg");
+  c.manager.carry.contact_distance = read_option<float>(carry, "contact_distance");
+  c.manager.carry.seen_through_share = read_option<float>(carry, "seen_through_share");
+  c.manager.carry.carried_seen_through_share = read_option<float>(carry, "carried_seen_through_share");
+  c.manager.carry.gripped_away = read_choice(carry, "gripped_away") == "retire"
                                      ? CarryOptions::GrippedAway::kRetire
                                      : CarryOptions::GrippedAway::kCarry;
   carry.finish();
@@ -268,28 +269,28 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     }
   }
   auto companion = s.section("companion");
-  c.manager.companion.contact_distance = companion.get<float>("contact_distance", 0.f, 0.1f);
-  c.manager.companion.min_motion = companion.get<float>("min_motion", 1e-4f, 1.f);
-  c.manager.companion.min_turn_deg = companion.get<float>("min_turn_deg", 0.01f, 180.f);
+  c.manager.companion.contact_distance = read_option<float>(companion, "contact_distance");
+  c.manager.companion.min_motion = read_option<float>(companion, "min_motion");
+  c.manager.companion.min_turn_deg = read_option<float>(companion, "min_turn_deg");
   companion.finish();
   auto refit = s.section("refit");
-  c.manager.refit.enabled = refit.get<bool>("enabled");
-  c.manager.refit.min_points = refit.get<int>("min_points", 3, 1000000);
-  c.manager.refit.min_spread = refit.get<float>("min_spread", 0.f, 1.f);
-  c.manager.refit.min_coverage = refit.get<float>("min_coverage", 0.f, 1.f);
-  c.manager.refit.min_rotation = refit.get<float>("min_rotation_deg", 0.f, 180.f) * kRadiansPerDegree;
-  c.manager.refit.min_translation = refit.get<float>("min_translation", 0.f, 1.f);
-  c.manager.refit.min_held_rotation = refit.get<float>("min_held_rotation", 0.f, 1.f);
-  c.manager.refit.icp.iterations = refit.get<int>("icp_iterations", 1, 50);
-  c.manager.refit.icp.max_distance = refit.get<float>("icp_max_distance", 1e-4f, 0.1f);
-  c.manager.refit.icp.min_paired_share = refit.get<float>("icp_min_paired_share", 0.f, 1.f);
-  c.manager.refit.icp.max_translation = refit.get<float>("icp_max_translation", 0.f, 1.f);
-  c.manager.refit.icp.max_rotation = refit.get<float>("icp_max_rotation_deg", 0.f, 180.f) * kRadiansPerDegree;
-  c.manager.refit.icp.max_points = refit.get<int>("icp_max_points", 3, 1000000);
+  c.manager.refit.enabled = read_option<bool>(refit, "enabled");
+  c.manager.refit.min_points = read_option<int>(refit, "min_points");
+  c.manager.refit.min_spread = read_option<float>(refit, "min_spread");
+  c.manager.refit.min_coverage = read_option<float>(refit, "min_coverage");
+  c.manager.refit.min_rotation = read_option<float>(refit, "min_rotation_deg") * kRadiansPerDegree;
+  c.manager.refit.min_translation = read_option<float>(refit, "min_translation");
+  c.manager.refit.min_held_rotation = read_option<float>(refit, "min_held_rotation");
+  c.manager.refit.icp.iterations = read_option<int>(refit, "icp_iterations");
+  c.manager.refit.icp.max_distance = read_option<float>(refit, "icp_max_distance");
+  c.manager.refit.icp.min_paired_share = read_option<float>(refit, "icp_min_paired_share");
+  c.manager.refit.icp.max_translation = read_option<float>(refit, "icp_max_translation");
+  c.manager.refit.icp.max_rotation = read_option<float>(refit, "icp_max_rotation_deg") * kRadiansPerDegree;
+  c.manager.refit.icp.max_points = read_option<int>(refit, "icp_max_points");
   refit.finish();
   auto world = s.section("world");
-  const auto t = world.get_vector("translation", 3);
-  const auto q = world.get_vector("rotation", 4);
+  const auto t = read_list(world, "translation");
+  const auto q = read_list(world, "rotation");
   double tq[3] = {t[0], t[1], t[2]};
   double qq[4] = {q[0], q[1], q[2], q[3]};
   if (auto error = pose_from_arrays(tq, qq, c.world_from_camera)) {

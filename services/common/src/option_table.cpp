@@ -1,0 +1,350 @@
+// The option table: every configuration key declared once, in the order (and with the comments) of
+// the generated configs/default.yaml. Change an option here, then regenerate the shipped files:
+//   build/services/config/mfot-config --print-defaults > configs/default.yaml
+//   build/services/config/mfot-config --print-docs > docs/options.md
+// (tests/services/test_options.cpp fails while they differ). A range is inclusive at both ends and
+// written as the loader checks it; a doc states the contract: meaning, unit, what 0 or false means.
+#include "mfot/service/options.hpp"
+
+namespace mfot::service {
+
+namespace {
+
+using K = OptionEntry::Kind;
+using T = OptionType;
+
+constexpr OptionEntry entry(K kind, std::string_view key, std::string_view doc) {
+  OptionEntry e;
+  e.kind = kind;
+  e.key = key;
+  e.doc = doc;
+  return e;
+}
+constexpr OptionEntry option(std::string_view key, T type, std::string_view value, std::string_view doc) {
+  OptionEntry e = entry(K::kOption, key, doc);
+  e.type = type;
+  e.default_value = value;
+  return e;
+}
+
+constexpr OptionEntry blank() { return {}; }
+// A comment paragraph inside mapping `scope` ("" = the top level).
+constexpr OptionEntry note(std::string_view scope, std::string_view text) { return entry(K::kNote, scope, text); }
+constexpr OptionEntry mapping(std::string_view key, std::string_view doc) { return entry(K::kMapping, key, doc); }
+constexpr OptionEntry flag(std::string_view key, std::string_view value, std::string_view doc) {
+  return option(key, T::kBool, value, doc);
+}
+constexpr OptionEntry text(std::string_view key, std::string_view value, std::string_view doc) {
+  return option(key, T::kString, value, doc);
+}
+constexpr OptionEntry choice(std::string_view key, std::string_view value, std::string_view choices,
+                             std::string_view doc) {
+  OptionEntry e = option(key, T::kChoice, value, doc);
+  e.choices = choices;
+  return e;
+}
+constexpr OptionEntry list(std::string_view key, std::string_view value, int size, std::string_view unit,
+                           std::string_view doc) {
+  OptionEntry e = option(key, T::kList, value, doc);
+  e.size = size;
+  e.unit = unit;
+  return e;
+}
+constexpr OptionEntry ranged(T type, std::string_view key, std::string_view value, std::string_view min,
+                             std::string_view max, std::string_view unit, std::string_view doc) {
+  OptionEntry e = option(key, type, value, doc);
+  e.min = min;
+  e.max = max;
+  e.unit = unit;
+  return e;
+}
+constexpr OptionEntry integer(std::string_view key, std::string_view value, std::string_view min,
+                              std::string_view max, std::string_view unit, std::string_view doc) {
+  return ranged(T::kInteger, key, value, min, max, unit, doc);
+}
+constexpr OptionEntry number(std::string_view key, std::string_view value, std::string_view min,
+                             std::string_view max, std::string_view unit, std::string_view doc) {
+  return ranged(T::kNumber, key, value, min, max, unit, doc);
+}
+// A number above min (min itself refused) and at most max: (min, max].
+constexpr OptionEntry number_above(std::string_view key, std::string_view value, std::string_view min,
+                                   std::string_view max, std::string_view unit, std::string_view doc) {
+  OptionEntry e = ranged(T::kNumber, key, value, min, max, unit, doc);
+  e.min_open = true;
+  return e;
+}
+
+// clang-format off
+constexpr OptionEntry kTable[] = {
+    note("", "mfot's defaults, generated from the option table (services/common/src/option_table.cpp) by\nmfot-config --print-defaults: change an option there, not here (tests/services/test_options.cpp\nfails while the two differ); docs/options.md lists the same. The build embeds this file; a\nconfig of your own (--config) holds only what it changes and is laid over it, key by key. As\nshipped: the built-in `stack` simulator scenario through the whole process group on the CPU or\nGPU (auto). Every service reads its own section; unknown keys and out-of-range values are refused\nat start with the key and the allowed range.\nUnits: metres, radians, milliseconds unless a key says otherwise."),
+    blank(),
+    mapping("group", "scripts/mfot-run only"),
+    integer("group.workers", "6", "1", "64", "", "tracker worker pool size; objects beyond it wait (stale) for a free worker"),
+    integer("group.max_restarts", "3", "", "", "", "restarts of a crashed service before the group gives up on it (a refused configuration is never restarted; without the merger or preprocess the group stops)"),
+    number("group.drain_timeout_s", "5", "", "", "s", "after a finite source ends, wait at most this long for the last poses"),
+    number("group.ready_timeout_s", "30", "", "", "s", "wait at most this long for every service's first status before starting the source"),
+    note("group", "lcm_url: \"udpm://239.255.76.67:7667?ttl=0\"  (unset: host-local; LCM has no authentication)"),
+    blank(),
+    mapping("capture", ""),
+    choice("capture.source", "sim", "sim|tum|pcd|oni|openni2|lcmlog", ""),
+    choice("capture.rate", "lockstep", "realtime|fast|lockstep", "realtime: at the source's timestamps; fast: as fast as possible; lockstep: at most lockstep_window frames without poses on MFOT_POSES"),
+    integer("capture.lockstep_window", "1", "1", "8", "", "lockstep: frames out whose poses have not come back. 1: a frame's latency is its own processing; 2-4 overlap preprocessing of the next frames with tracking of this one (more frames/s on many cores, each frame waiting for those ahead). Results are identical for every window (trackers wait for the previous frame's models); needs preprocess.queue_frames >= window and tracker.queue_scenes >= window (scripts/mfot-run raises them for its run)"),
+    number("capture.lockstep_timeout_s", "5.0", "0.001", "3600", "s", "lockstep: wait this long for a frame's poses, then warn and go on"),
+    number("capture.speed", "1.0", "0.001", "100", "", "realtime playback speed factor; also the .oni playback speed"),
+    integer("capture.max_frames", "0", "0", "", "", "frames to publish, 0 = unlimited"),
+    integer("capture.start_frame", "0", "0", "", "", "first source frame (also where --loop restarts)"),
+    flag("capture.loop", "false", "restart a finite source (sim, tum, oni, lcmlog) at its end instead of exiting"),
+    text("capture.groundtruth_dir", "\"\"", "write ground truth here (poses.csv, labels/<seq %06d>.png), \"\" = none; sources with ground truth: sim, and tum folders written by mfot-simulate"),
+    blank(),
+    note("capture", "Wire encoding of frame_t (lcmtypes/frame_t.lcm)"),
+    choice("capture.depth_encoding", "rvl", "raw|zlib|rvl", "all lossless; rvl (run-length + delta coding) is the fastest"),
+    choice("capture.color_encoding", "jpeg", "raw|jpeg|png", "jpeg is lossy, png lossless"),
+    integer("capture.jpeg_quality", "90", "1", "100", "", ""),
+    integer("capture.zlib_level", "1", "0", "9", "", "zlib depth and PNG colour compression level"),
+    blank(),
+    note("capture", "source: sim (the built-in simulator; timestamps are the scenario time)"),
+    choice("capture.scenario", "stack", "stack|contact|rotate|apart|static|random|spin|tumble|slide|cross", ""),
+    integer("capture.seed", "1", "0", "", "", "scene (random, spin, tumble, slide, cross) and sensor-noise seed"),
+    integer("capture.sim_frames", "0", "0", "1000000", "", "frames to render, 0 = the scenario's own length"),
+    flag("capture.sim_noise", "true", "Kinect-like sensor noise and dropouts"),
+    integer("capture.sim_objects", "3", "1", "16", "", "the random scenario's objects on the table"),
+    blank(),
+    note("capture", "source: tum (a TUM RGB-D folder: rgb.txt, depth.txt, PNGs; its intrinsics.txt when present, else tum_intrinsics)"),
+    text("capture.folder", "\"\"", "required for source tum and pcd (--folder)"),
+    number("capture.depth_scale", "5000.0", "0.001", "1000000000", "", "depth PNG units per metre (TUM: 5000)"),
+    number("capture.max_time_difference_s", "0.02", "1e-6", "10", "s", "rgb/depth association tolerance"),
+    list("capture.tum_intrinsics", "[525.0, 525.0, 319.5, 239.5]", 4, "", "fx fy cx cy, pixels, of a folder without intrinsics.txt (the folder's file wins)"),
+    blank(),
+    note("capture", "source: pcd (a folder of organised PCD files, x y z rgb/rgba, played in natural name order; depth from z, the intrinsics fitted to each cloud; unusable files are skipped with an error naming them)"),
+    number("capture.pcd_fps", "30.0", "0.001", "1000", "", "frames per second the folder is played at (PCD files carry no time); the folder is `folder`"),
+    integer("capture.pcd_background_label_max", "0", "0", "65534", "", "a `label` field is ground truth for mfot-evaluate; labels up to this are background (mOSD: 9, its labels 1-9 are the table; objects' parts are 20-29, 30-39, ...)"),
+    blank(),
+    note("capture", "source: lcmlog (a recorded run's MFOT_FRAME events, published as recorded: replay)"),
+    text("capture.log_file", "\"\"", "required for source lcmlog (--log; scripts/mfot-run --replay sets it)"),
+    blank(),
+    note("capture", "source: oni (an OpenNI2 recording, played frame by frame and paced by `rate` and `speed`)"),
+    text("capture.oni_file", "\"\"", "required for source oni (--oni)"),
+    blank(),
+    note("capture", "source: openni2 (live camera, depth registered to colour, 640x480 at 30 Hz)"),
+    text("capture.device_uri", "\"\"", "\"\" = the first device found"),
+    number("capture.reopen_max_backoff_s", "10.0", "0.5", "600", "s", "a lost camera is reopened with back-off doubling up to this"),
+    blank(),
+    mapping("preprocess", ""),
+    note("preprocess", "Workspace crop: an axis-aligned box in the camera frame (x right, y down, z forward); crop_min < crop_max on every axis. Points outside are dropped before anything else."),
+    list("preprocess.crop_min", "[-1.5, -1.5, 0.3]", 3, "m", "lower corner x, y, z"),
+    list("preprocess.crop_max", "[1.5, 1.5, 2.0]", 3, "m", "upper corner x, y, z"),
+    blank(),
+    note("preprocess", "Table removal: a RANSAC plane is fitted, kept between frames, and refitted only when it stops fitting. Points more than plane_margin above it (camera side) are kept."),
+    flag("preprocess.remove_plane", "true", "false: keep the table (scenes without one)"),
+    integer("preprocess.ransac_iterations", "100", "1", "100000", "", "hypotheses per fit (a fixed count: deterministic cost)"),
+    integer("preprocess.ransac_sample_points", "2048", "3", "1000000", "", "points the hypotheses are scored on, an even stride"),
+    number("preprocess.plane_inlier_distance", "0.01", "0.0001", "0.5", "", "inlier band of the plane"),
+    number("preprocess.plane_min_inlier_share", "0.1", "0.001", "1", "", "a fit is the table only with at least this share of the cropped points as inliers"),
+    number("preprocess.plane_keep_ratio", "0.7", "0.001", "1", "", "refit when the kept plane's inlier share falls below this fraction of its share when fitted"),
+    number("preprocess.plane_margin", "0.01", "0", "0.5", "", "keep points more than this above the plane"),
+    number("preprocess.plane_margin_sigmas", "3.0", "0", "10", "", "... or this many depth-noise sigmas where that is more (far away): 1 cm up to 1.45 m, 1.8 cm at 2 m; 0 = fixed"),
+    list("preprocess.depth_sigma", "[0.0012, 0.0019, 0.4]", 3, "m", "sensor depth noise sigma(z) = base + quadratic (z - reference)^2 (Nguyen et al. 2012, Kinect v1)"),
+    flag("preprocess.table_prism", "true", "clusters must stand on the table: less than prism_min_share of a cluster's voxels above the convex hull of the plane's inliers and it never becomes an object (walls, shelves, people beside the table); false = any cluster (scenes without a table)"),
+    number("preprocess.prism_min_share", "0.25", "0.001", "1", "", ""),
+    integer("preprocess.seed", "502558", "0", "", "", "seed of the RANSAC generator and of the voxel grid's draws"),
+    blank(),
+    note("preprocess", "Voxel-grid downsampling: mean position and colour per voxel (thesis: 5 mm)."),
+    number("preprocess.voxel_size", "0.005", "0.0001", "1", "", "leaf"),
+    flag("preprocess.voxel_jitter", "false", "true: each frame's grid corner drawn within one leaf from seed and the frame's seq (the same in any replay). On a fixed grid (false, the thesis) a surface at rest gives the same voxel means every frame and ICP onto a model sampled there locks onto that pose: still objects stay exactly put, and a box the hand starts to turn is held back (rotate seeds 14, 41, 50: up to 14 deg for 2-3 frames). true met those (fresh seeds 41-50: 78 of 80 runs, 76 fixed, no frame over 10 deg, 7 fixed), but still objects read noisier (a still box under an arm 3.4 deg, 1.6 fixed) and seeds 1-15 read 118 of 120 (119 fixed, frames over 5 deg 370 against 245). README \"Measured\": \"A voxel grid that moves every frame\""),
+    blank(),
+    note("preprocess", "Euclidean clustering of the voxels (connected components closer than cluster_tolerance)."),
+    flag("preprocess.cluster", "true", "false: every scene point in one cluster index -1 (no new objects)"),
+    number("preprocess.cluster_tolerance", "0.015", "0.0001", "1", "", ""),
+    integer("preprocess.cluster_min_size", "30", "1", "10000000", "", "voxels, at most cluster_max_size; smaller clusters get index -1"),
+    integer("preprocess.cluster_max_size", "100000", "1", "10000000", "", "voxels; larger clusters get index -1"),
+    blank(),
+    note("preprocess", "Service: threads and queue (mfot-preprocess; the in-process runner uses threads too)."),
+    integer("preprocess.threads", "0", "0", "64", "", "threads per frame, the service's own included; 0 = a quarter of the machine's cores, at least 1 and at most 8 (2 cores: 1; 16 cores: 4): the group's trackers, merger and capture need the rest. The scene is bit-identical for every count"),
+    integer("preprocess.queue_frames", "1", "1", "64", "", "frames waiting for preprocessing, in order: 1 = always the newest (a live camera's lowest latency); lockstep needs capture.lockstep_window (scripts/mfot-run raises it)"),
+    blank(),
+    mapping("tracker", ""),
+    choice("tracker.backend", "auto", "auto|cuda|cpu|point-to-point", "auto: CUDA when a GPU is usable, else the CPU; cuda: refused at start when no GPU can start; point-to-point: the point-to-point likelihood on the CPU"),
+    integer("tracker.particles", "100", "1", "100000", "", "particles per object; the thesis's real-time point is 100"),
+    integer("tracker.threads", "1", "1", "256", "", "CPU JCSD threads across particles"),
+    integer("tracker.cuda_device", "0", "0", "64", "", "CUDA device ordinal"),
+    number("tracker.cell_size", "0.015", "0.001", "0.2", "m", "JCSD grid cell = kernel bandwidth r"),
+    number_above("tracker.lambda", "80.0", "0", "1000", "", "likelihood sharpness of eq. 3.21"),
+    choice("tracker.resampling", "systematic", "multinomial|systematic", "the resampling of Algorithm 1"),
+    list("tracker.init_sigma", "[0.002, 0.002, 0.002, 0.00875, 0.00875, 0.00875]", 6, "", "C_init std devs (x, y, z m; roll, pitch, yaw rad)"),
+    number("tracker.diffusion_a", "0.02", "0", "100", "", "C_t = a dX dX^T + b C_init (eq. 2.14)"),
+    number("tracker.diffusion_b", "1.0", "0", "100", "", "weight b of C_init in C_t"),
+    number("tracker.predicted_fraction", "0.5", "0", "1", "", "share of particles moved by the last motion dX (eq. 2.15)"),
+    number("tracker.companion_fraction", "0.5", "0", "1", "", "share of the particles dX leaves unpredicted that a touching object's last motion moves instead (merger.companion: a gripped box turns with the hand, whose estimate catches the turn first); 0 = the thesis. 1 (with merger.propagation_min_seed_share 0.1) met every target on CPU seeds 1-5 but took held-out `apart` seed 10 to 90 deg: a carried box goes where the arm's drifting estimate takes it (README \"Measured\": every unpredicted particle moved with the gripper)"),
+    integer("tracker.anneal_iterations", "1", "1", "10", "", "weightings per frame (annealed particle filter): more resample, diffuse with C_init x anneal_shrink^k and reweight again, each one more likelihood evaluation; 1 = the thesis"),
+    number("tracker.anneal_shrink", "0.5", "0.01", "1", "", "C_init's scale falls by this factor per annealing round"),
+    integer("tracker.refine_rounds", "0", "0", "20", "", "local refinement of the estimate on the JCSD score: pattern-search rounds (12 moves each, steps halving); 0 = the thesis (the particles' weighted mean)"),
+    number("tracker.refine_translation", "0.002", "0", "0.1", "m", "its first translation step"),
+    number("tracker.refine_rotation", "0.0175", "0", "0.5", "rad", "its first rotation step"),
+    flag("tracker.follow_isolated", "true", "in a frame where no other tracked object's model lies within exclude_claimed_radius + hypothesis_margin of the object's box (no hand, no neighbour), the filter steps with the two isolated_* settings below instead of predicted_fraction and refine_rounds: alone, the score's mode is the object and following it harder keeps up with fast turns; gripped, the mode lies partly on the hand. Needs exclude_claimed_radius > 0; false = the settings above everywhere (thesis)"),
+    number("tracker.isolated_predicted_fraction", "0.75", "0", "1", "", ""),
+    integer("tracker.isolated_refine_rounds", "2", "0", "20", "", ""),
+    integer("tracker.icp_iterations", "10", "0", "50", "", "every stepped frame's estimate refined on the model's surface: point-to-point ICP iterations of the scored points (occluders and claimed points left out) onto the model (IcpRefinement); 0 = the thesis (the particles' weighted mean). The JCSD score is smooth over its 15 mm kernel, so a turning object's estimate lags several degrees at some views; the surface pins it. Point-to-point ICP creeps along weakly held directions (a hand's roll): 5 iterations on 2000 points left rotate's box up to 20 deg off"),
+    number("tracker.icp_max_distance", "0.01", "0.0001", "0.1", "m", "a scored point pairs with the nearest model point this close"),
+    number("tracker.isolated_icp_max_distance", "0", "0", "0.1", "m", "... this close instead where the object is isolated (follow_isolated: no other object near): 0 or at least 0.0001 (the pairing floor, as icp_max_distance); 0 = icp_max_distance (the default). 0.008 took seeds 1-15's frames over 5 deg from 295 to 164, but fresh seeds 126-140 met every target in 117 of 120 runs (120 at 0), and a still box under a withdrawing arm read 3.5 deg (0.9): no steady gain (README \"A tighter pairing for isolated objects, not the default\")"),
+    number("tracker.icp_min_paired_share", "0.8", "0", "1", "", "fewer of the scored points paired (a hand or an unexplained cluster within the margin): the estimate stays"),
+    number("tracker.icp_max_translation", "0.02", "0", "1", "m", "a refinement moving the estimate further is refused"),
+    number("tracker.icp_max_rotation", "0.175", "0", "3.14159", "rad", "... or turning it further"),
+    integer("tracker.icp_max_points", "2000", "3", "1000000", "", "at most this many scored points take part, an even stride over them. A hand's roll about its forearm shows only in its palm: a few dozen of 200 points, and the hand that turns a box it hides was followed 10-20 degrees off (README \"Measured\": ICP on 2000 points); the nearest-point queries are the cost"),
+    integer("tracker.icp_final_iterations", "0", "0", "50", "", "the last this many of the icp_iterations take up to icp_final_points instead (at most icp_iterations): with icp_max_points 200 and 3 here, the cheaper setting (a 1673-point object's step 0.98 ms against 1.28 ms, mfot_bench_tracking_step), which follows a hand's roll less well (README \"ICP on 2000 points\")"),
+    integer("tracker.icp_final_points", "2000", "3", "1000000", "", ""),
+    number("tracker.icp_anchor_weight", "4", "1", "1000", "", "the model's first-view points weigh this much in ICP's fit, points grown since 1; 1 = all alike. The first view placed the object's frame exactly; each growth adds its points with its frame's pose error, which a tumbling box piles up (README \"Measured\": anchored on the first view)"),
+    number("tracker.particles_follow_refinement", "1.0", "0", "1", "", "the particle set moves rigidly by this share of ICP's (or the last pose check's) correction, so the next step starts where the surface put the object; 0 = the set stays where the filter's own step left it (thesis), on the score's mode, which on a hand lay 8-10 degrees off the surface fit until the gap passed icp_max_rotation and a held box carried by that hand jumped. 0.5 read worse than 1 on the seed matrix; merger.carry.gripped_away: carry needs 0 here (configs/carry.yaml; README \"Carry mode and the trackers' settings\")"),
+    number("tracker.last_pose_check_occluded_share", "0.15", "0", "1", "", "in a frame where at least this share of the model is occluded (hold_occluded_share measures it) and no touching object moves it (merger.companion), the last estimate is refined too and kept when it explains the view better: fewer scored points off the model plus fewer model points the view sees through; 0 = the filter's estimate (thesis). Partly hidden, a still object's JCSD mode sinks its visible surface into its hidden side (README \"A partly hidden object kept where it was\")"),
+    integer("tracker.last_pose_check_points", "400", "3", "1000000", "", "that refinement and both shares on at most this many points, an even stride"),
+    number("tracker.last_pose_check_margin", "0", "0", "0.99", "", "... kept only when its charge is at least this share below the estimate's; 0 = any lower charge. 0.02 (ties at the noise to the filter) met every target on seeds 1-5 but lost a box on held-out stack seed 7 (README \"A partly hidden object kept where it was\")"),
+    flag("tracker.companion_pose_check", "true", "in a frame where a touching object's motion is set (merger.companion) and at least last_pose_check_occluded_share is occluded, the last estimate moved by that motion is refined too and kept when it explains the view better (the charge and the points of last_pose_check_*): a box turned by the hand that grips it shows too little for the refinement to leave where it was, and a still box under a hand that hovers over it keeps its place. On since 2026-11-26 (with merger.reidentify_grown_min_share): dev machine CPU seeds 1-15 every target in 120 of 120 runs (119 off), portable build 116 (115), GPU 2000 particles seeds 1-10 79 of 80 (77); README \"A gripped object started where its companion takes it, by default\"; false = the filter's estimate (thesis). Needs hold_occluded_share > 0"),
+    number("tracker.companion_turn_min_deg", "0.7", "0", "180", "deg", "in a frame where a touching object's motion is set and turns at least this much, the filter's step turned the estimate as much about an axis whose cosine with the companion's turn is at least"),
+    number("tracker.companion_turn_min_cosine", "0.8", "-1", "1", "", "this, and the refined estimate kept less than"),
+    number("tracker.companion_turn_max_kept", "0.3", "0", "1", "", "this share of that turn: the estimate takes the filter's rotation. On the fixed voxel grid ICP holds a box a hand turns quickly from rest where it was (`rotate` seeds 14, 86, 112: 11-14 degrees behind); README \"A turn the filter and the companion agree on\". 0 = off (the thesis)"),
+    number("tracker.hypothesis_margin", "0.05", "0", "1", "m", "scene points within the model's box grown by this margin are scored (\"near\" in thesis 3.3): the largest motion between frames (1.5 m/s at 30 fps) plus noise"),
+    flag("tracker.exclude_occluders", "true", "scene points in front of the model at the last estimate (a hand over the object, not its own near side) are left out of the likelihood; false = score every point in the margin (thesis)"),
+    number("tracker.hold_occluded_share", "0.6", "0", "1", "", "a frame in which at least this share of the model (at the last estimate) is occluded by nearer scene points does not move the filter: the object is hidden and would be dragged onto its occluder; 0 = always step (thesis)"),
+    integer("tracker.max_hold_frames", "90", "1", "100000", "", "at most this many holds in a row (90 = 3 s; rotate's box is hidden ~35 frames): a hold cannot tell a hidden object from one whose estimate slipped behind a surface, so after this the filter steps on every point in the margin (thesis) until the occlusion clears"),
+    number("tracker.hold_min_scored_share", "0.2", "0", "1", "", "a frame in which fewer scene points are left to score (occluders and claimed points left out) than this share of the model's points holds the filter too: a hand covering a gripped box leaves a strip of its edge, on which the estimate slides off (at 0.1 `rotate`'s box slid 8 cm on 140-250 points with a companion's motion offered); 0 = always step on what is left"),
+    number("tracker.occluder_depth_margin", "0.01", "0", "1", "m", "an occluding scene point is at least this much nearer the camera than the model point"),
+    number("tracker.own_surface_radius", "0.01", "0", "0.1", "m", "a scene point this close to the model (at the last estimate) is the object's own surface, never an occluder (a turned object's near side hides its far side)"),
+    number("tracker.occlusion_window", "0.006", "0.0001", "0.1", "", "half-angle (tangent) of the viewing cone of the occlusion tests: ~3.4 px at fx = 570, a little more than the spacing of 5 mm voxels at 1 m, so a surface in front always has a point in the cone"),
+    number("tracker.confidence_match_distance", "0.01", "0.0001", "0.1", "m", "published confidence = how well the estimate explains the scene points inside its model box grown by confidence_claim_margin: mean over them of the SMR colour cosine to the nearest model point within this distance (0 without one); README \"Confidence\""),
+    number("tracker.confidence_claim_margin", "0.01", "0", "0.1", "m", ""),
+    integer("tracker.confidence_min_points", "20", "1", "1000000", "", "fewer claimed points: confidence 0 (nothing seen to judge)"),
+    number("tracker.confidence_seen_through_weight", "2", "0", "100", "", "... times (1 - this weight x the share of the model the view sees through at the estimate), at least 0: a turned estimate still claims points on the object, but turns parts of its model into free space; 0 = the fit alone. Needs hold_occluded_share > 0"),
+    number("tracker.confidence_hold_half_life", "15", "1", "100000", "", "while held (hidden), the last confidence halves every this many frames: a hidden object may move"),
+    number("tracker.exclude_claimed_radius", "0.01", "0", "0.1", "m", "a scored point this close to another object's model at its last pose, and nearer to it than to this object's model, is left out (the fingers gripping a box); 0 = score it (thesis)"),
+    integer("tracker.seed", "1", "0", "", "", "filter seed; each object adds its id"),
+    integer("tracker.heartbeat_ms", "100", "10", "10000", "ms", "worker heartbeat period"),
+    integer("tracker.queue_scenes", "1", "1", "64", "", "scenes a worker keeps, in frame order, until it may track them; beyond it the oldest is skipped (told to the merger at once). At least capture.lockstep_window; 1 = the newest only"),
+    integer("tracker.model_wait_ms", "5000", "1", "600000", "ms", "a scene waits at most this long for its object's model of the frame before, then is tracked with the model held (counted in MFOT_STATUS). Healthy runs never wait this long: the merger's estimate timeout, or its re-send of a lost model, comes first"),
+    blank(),
+    mapping("merger", ""),
+    number("merger.tau", "0.010", "0.0001", "0.1", "m", "segmentation threshold (eq. 3.23): 2 x the 5 mm voxel"),
+    number("merger.alpha", "0.0", "0", "1", "", "model forgetting factor (thesis 3.4: 0.02). Measured (README \"Accuracy\"): 0.02 lets static objects' frames drift 5-9 mm on stack and contact, so models stay as first seen (plus growth)"),
+    number("merger.seen_radius", "0.01", "0", "0.1", "m", "only model points with a segmented point this close are forgotten (occluded parts are kept); 0 = the thesis's uniform draw"),
+    integer("merger.seed", "1", "0", "", "", "model-update seed; each object adds its id"),
+    integer("merger.min_object_points", "50", "1", "100000", "", "smaller clusters never become objects"),
+    integer("merger.max_model_points", "1500", "1", "100000", "", "a model never holds more points: a new one is subsampled, a growing one (growth_frames) thins out evenly over its whole extent"),
+    number("merger.propagation_radius", "0.015", "0", "0.1", "m", "unexplained points of a cluster take the nearest segmented point's label through steps of at most this; 0 = off"),
+    number("merger.propagation_min_seed_share", "0.1", "0", "1", "", "... only in a cluster at least this share of whose points are segmented; 0 = any: a box the hand brings back (or puts down) stays free to be found again instead of taking the hand's label from the few points of the hand's model that reach into its cluster (`apart` seed 1 with 2 cm supervoxels: 25 of 422 points; README \"Measured\": \"Touching boxes a step apart\")"),
+    integer("merger.growth_frames", "300", "0", "100000", "", "an object younger than this (frames) grows its model by the points it gains so (entering the view)"),
+    integer("merger.reidentify_frames", "900", "0", "1000000", "", "a retired object is remembered this many frames; a new object matching its colours takes its id back; 0 = off"),
+    number("merger.reidentify_similarity", "0.9", "0.001", "1", "", "least Bhattacharyya coefficient of the 8-bin SMR colour histograms for that match"),
+    flag("merger.reidentify_register", "true", "a re-identified object's remembered model is registered on its new points (coarse rotations scored by JCSD, pattern search, checked by the tracker's confidence measure): it keeps its object frame, so its pose goes on where it left off, and its whole model; false (or no fit): a new model and frame under the old id"),
+    flag("merger.reidentify_grown", "true", "a young object that matched none at birth is matched again each frame its model grows (growth_frames), against objects retired by its birth: a returning box's first corner in the hand may show too few colours to match (README \"Measured\": re-identified once grown); false = at birth only"),
+    number("merger.reidentify_grown_min_share", "0.5", "0", "1", "", "... once its model holds at least this share of the remembered model's points: the remembered model registered on a piece in the hand sat 17 degrees off (README \"Measured\": \"... and re-identified only on enough of it\"); 0 = at the first match"),
+    integer("merger.reidentify_rotations", "256", "1", "100000", "", "coarse rotation hypotheses of that registration, uniform over SO(3)"),
+    integer("merger.reidentify_candidates", "4", "1", "64", "", "best coarse hypotheses refined"),
+    integer("merger.reidentify_refine_rounds", "16", "0", "100", "", "pattern-search rounds per candidate"),
+    number("merger.reidentify_min_fit", "0.7", "0", "1", "", "least confidence (tracker.confidence_*) of the registered pose; below it, a new frame"),
+    integer("merger.new_object_frames", "3", "1", "1000", "", "frames an unexplained cluster must persist to become an object"),
+    number("merger.new_object_unassigned_share", "0.5", "0.01", "1", "", "a cluster is unexplained when more than this share of it has no object"),
+    number("merger.new_object_held_margin", "0.02", "0", "0.5", "m", "unexplained points mostly inside a held object's model box grown by this are its own (its estimate waits while its tracker holds it), no new object; 0 = off"),
+    integer("merger.retire_min_points", "20", "0", "100000", "", "an object with fewer segmented points lacks support ..."),
+    integer("merger.retire_frames", "5", "1", "10000", "", "... and is retired after this many such frames in a row"),
+    number("merger.hidden_occluded_share", "0.6", "0", "1", "", "frames in which at least this share of its model is occluded by nearer scene points (hidden behind a hand) do not count towards retirement; 0 = every frame counts (thesis); goes with hold_occluded_share"),
+    number("merger.hidden_depth_margin", "0.01", "0", "1", "m", "an occluding scene point is at least this much nearer the camera than the model point"),
+    integer("merger.estimate_timeout_ms", "500", "1", "600000", "ms", "wait this long for the trackers' estimates of a frame; late objects are marked stale"),
+    integer("merger.worker_timeout_ms", "1000", "100", "600000", "ms", "a worker silent this long is dead: its object goes to another worker"),
+    integer("merger.expected_workers", "0", "0", "1000", "", "workers the first frame waits for (scripts/mfot-run sets it)"),
+    integer("merger.startup_timeout_ms", "10000", "0", "600000", "ms", "wait this long for expected_workers before the first frame"),
+    flag("merger.write_labels", "true", "write labels/<frame>.png next to poses.csv"),
+    flag("merger.fitting_distance", "true", "write fitting.csv (thesis eq. 4.1, 4.2)"),
+    note("merger", "Object discovery where objects are born (the first frame, a cluster no object explains): `lccp` splits such a cluster into its locally convex connected parts (PCL's supervoxels + LCCP, Stein et al. 2014), so touching and stacked objects are found apart from the first frame; `clusters` makes each Euclidean cluster one object (thesis). Runs only at birth, never per frame. Supervoxel and LCCP settings as PCL's example_lccp_segmentation."),
+    mapping("merger.discovery", ""),
+    text("merger.discovery.method", "lccp", "lccp | clusters"),
+    number("merger.discovery.voxel_resolution", "0.0075", "0.0001", "0.1", "m", "supervoxel voxel leaf"),
+    number("merger.discovery.seed_resolution", "0.02", "0.0001", "0.5", "m", "supervoxel seed spacing, at least voxel_resolution; 3 cm straddles the step between touching boxes' front faces and joins them (README \"Measured\": \"Touching boxes a step apart\")"),
+    number("merger.discovery.color_importance", "0.0", "0", "100", "", "supervoxel distance weights: of the colour difference"),
+    number("merger.discovery.spatial_importance", "1.0", "0", "100", "", "weight of the distance between a voxel and a seed"),
+    number("merger.discovery.normal_importance", "4.0", "0", "100", "", "weight of the angle between their normals"),
+    number("merger.discovery.concavity_tolerance_deg", "10", "0.1", "90", "deg", "a concave connection flatter than this still joins two patches"),
+    number("merger.discovery.smoothness_threshold", "0.1", "0", "1", "", "LCCP smoothness check; 0 = off"),
+    flag("merger.discovery.extended_convexity", "false", "LCCP k-factor 1: a convex connection needs a common neighbour that agrees (splits boxes' faces apart)"),
+    flag("merger.discovery.sanity_criterion", "true", "LCCP's check of edge-on (singular) connections"),
+    integer("merger.discovery.min_part_points", "150", "1", "100000", "", "parts with fewer scene points join the neighbouring part they touch (no tiny objects)"),
+    note("merger.discovery", "Discovery confirmed over an object's first confirm_frames frames, while it stays within confirm_max_motion of where it was born (a hand reaching in shows new parts of itself, not new noise): each frame its segmented points are split again, and once that found parts in confirm_votes frames the object is split. It keeps its largest part; a part that is one convex piece with a sibling's points (born from the same cluster) joins that sibling, the others become siblings (join-by-motion puts a wrongly split object together again). Touching objects that the birth frame's sensor noise joined come apart in the next frames. 0 frames = off (discovery at birth only)."),
+    integer("merger.discovery.confirm_frames", "15", "0", "1000", "", ""),
+    integer("merger.discovery.confirm_votes", "3", "1", "1000", "", "at most confirm_frames"),
+    number("merger.discovery.confirm_max_motion", "0.01", "0.0001", "1", "m", ""),
+    note("merger.discovery", "And the other way: two objects of one cluster whose points lay mostly in one part in every frame split again (at least confirm_frames - confirm_votes + 1 frames) are one object that the birth frame's noise cut in two: the smaller joins the larger when the confirmation ends. A pair seen apart once stays apart."),
+    flag("merger.discovery.confirm_join", "true", "false: a birth that cut one object in two stays two objects"),
+    note("merger.discovery", "Point-level boundaries between the parts (PartBoundaryRefiner): the discovery labels whole supervoxels, so where two touching objects' faces are nearly flush a strip of one goes to the other. A point within boundary_radius of another part moves to it when its patch continues a face of that part (on its plane) and the colours of the patch are boundary_color_ratio times likelier under that part's colours, and under that face's, than under its own part's (RGB histograms). boundary_radius 0 = off (parts end where LCCP's supervoxels end)."),
+    number("merger.discovery.boundary_radius", "0.03", "0", "0.2", "m", ""),
+    number("merger.discovery.boundary_color_ratio", "4", "1.001", "1000000", "", ""),
+    note("merger", "Join and split by motion. Objects born together (one cluster the discovery split) whose relative pose stays within join_translation / join_rotation_deg for join_frames frames while they move (join_min_motion or join_min_turn_deg) and whose models touch are parts of one rigid object (a mug and its handle): the younger joins the older, one id. An object whose segmented points lie in two clusters (each >= split_min_share of them) for split_frames frames while at most split_max_occluded of it is hidden (parts pushed or lifted apart) is split: it keeps its largest part, the others become new objects. 0 frames = off (the thesis has neither)."),
+    integer("merger.join_frames", "15", "0", "10000", "", ""),
+    number("merger.join_translation", "0.005", "0.0001", "0.1", "m", ""),
+    number("merger.join_rotation_deg", "3", "0.1", "45", "deg", ""),
+    number("merger.join_min_motion", "0.03", "0.001", "1", "m", ""),
+    number("merger.join_min_turn_deg", "20", "0.1", "180", "deg", ""),
+    number("merger.join_contact_distance", "0.01", "0.001", "0.1", "m", "models closer than this touch"),
+    integer("merger.split_frames", "5", "0", "10000", "", ""),
+    number("merger.split_min_share", "0.2", "0.01", "0.5", "", ""),
+    number("merger.split_min_gap", "0.03", "0", "1", "m", "the two largest parts lie at least this far apart (a grazing view cuts an arm from its hand by less)"),
+    number("merger.split_max_occluded", "0.1", "0", "1", "", ""),
+    note("merger", "A part other than the largest splits off once it departed this far from where the object's own motion would have put it since it was first seen apart (a hand seen in two clusters moves as one; a box it lets go of stays behind)."),
+    number("merger.split_min_departure", "0.03", "0", "1", "m", "0 = every part splits after split_frames"),
+    note("merger", "Hidden objects carried (CarryMonitor): an object whose tracker holds it (hidden behind a hand, or too little of it left to score) and which, while seen, kept its pose relative to a touching object (models within contact_distance) for `frames` frames in a row (each within translation / rotation_deg of the relative pose `frames` frames before it: a sliding window, so a long grip whose estimates drift apart slowly still counts) while both that object and it moved min_motion or turned min_turn_deg (an arm creeping past a still object keeps the window but never moved it), follows that object's motion until it is seen again; its tracker moves its filter there (object_model_t.carried_by). A new object whose colours match a carried one's and on whose points that one's model registers (merger.reidentify_register) is the carried object seen again away from its guessed pose: it takes the points and the registered pose, and nothing is born. frames 0 = off (the thesis: a hidden object waits where it was last seen)."),
+    mapping("merger.carry", ""),
+    integer("merger.carry.frames", "10", "0", "10000", "", ""),
+    number("merger.carry.translation", "0.03", "0.0001", "0.5", "m", "a hand's estimate wobbles by a centimetre or two"),
+    number("merger.carry.rotation_deg", "15", "0.1", "90", "deg", ""),
+    number("merger.carry.min_motion", "0.03", "0.001", "1", "m", ""),
+    number("merger.carry.min_turn_deg", "10", "0.1", "180", "deg", ""),
+    number("merger.carry.contact_distance", "0.02", "0.001", "0.1", "m", ""),
+    number("merger.carry.seen_through_share", "0.2", "0", "1", "", "0 = off: a hidden object none of whose watches carries it, but at least this share of whose model the view sees past at its held pose (a hand lifted it away), gripped by an object while it was hidden that moved min_motion or turned min_turn_deg since..."),
+    number("merger.carry.carried_seen_through_share", "0.05", "0", "1", "", "...when at most this share is seen through where that object would carry it,"),
+    choice("merger.carry.gripped_away", "retire", "carry|retire", "carry: is carried by that object; retire: no pose is published for it until re-identification gives its id back where it shows again. `carry` is only as right as the hand's estimated turn (`apart`'s lifted box 24-42 deg off on the CPU; with 2000 particles on the GPU 3 of 5 runs lose it after it is put down); `retire` keeps it within 2.6-5.6 deg while published (README \"Measured\": a box gripped away while hidden). `carry` is refused unless tracker.last_pose_check_occluded_share and particles_follow_refinement are 0 (with either on, apart seed 1 loses the lifted box): configs/carry.yaml sets them"),
+    note("merger", "Grown parts re-fitted on the first view (README \"Grown parts re-fitted on the first view\"): each part a model grew by was placed with its frame's pose, errors included. Where a frame shows the first view and a grown part well, each is registered alone (point-to-point ICP) on its segmented points, and the part is moved by the difference. false: parts stay where they grew."),
+    mapping("merger.refit", ""),
+    flag("merger.refit.enabled", "true", "false: grown parts stay where they grew"),
+    integer("merger.refit.min_points", "150", "3", "1000000", "", "segmented points a part needs ..."),
+    number("merger.refit.min_spread", "0.01", "0", "1", "m", "... and their second largest standard deviation: an edge-on face holds no rotation"),
+    number("merger.refit.min_coverage", "0.5", "0", "1", "", "... and they come near this share of the part's points: a face seen in part slides along itself"),
+    number("merger.refit.min_rotation_deg", "0.5", "0", "180", "deg", "a part misplaced by a smaller turn than this and a shorter move than min_translation is left where it is (the fit's noise)"),
+    number("merger.refit.min_translation", "0.002", "0", "1", "m", "... and this: see min_rotation_deg"),
+    number("merger.refit.min_held_rotation", "0.5", "0", "1", "", "a part turns only about axes the first view's points hold: whose point-to-plane lever is at least this share of the strongest's; 0 = the whole measured turn (a box showing its first view by its top alone holds no turn about the vertical: README \"Refit keeps the rotations the first view holds\")"),
+    integer("merger.refit.icp_iterations", "10", "1", "50", "", "of each registration"),
+    number("merger.refit.icp_max_distance", "0.01", "0.0001", "0.1", "m", "a segmented point pairs with the nearest point of its part this close"),
+    number("merger.refit.icp_min_paired_share", "0.8", "0", "1", "", "fewer paired: that registration is refused"),
+    number("merger.refit.icp_max_translation", "0.02", "0", "1", "m", "a registration moving further than this from its start is refused ..."),
+    number("merger.refit.icp_max_rotation_deg", "10", "0", "180", "deg", "... or turning further"),
+    integer("merger.refit.icp_max_points", "1000", "3", "1000000", "", "at most this many segmented points per registration, an even stride"),
+    note("merger", "A touching object's motion for a gripped object's filter (companion_motion.hpp): each frame, of the objects that touch an object (models within contact_distance) and moved min_motion or turned min_turn_deg in their last step, the one whose motion would move it furthest is its companion; its filter predicts tracker.companion_fraction of the particles dX leaves unpredicted by that motion. contact_distance 0 = off (the thesis)."),
+    mapping("merger.companion", ""),
+    number("merger.companion.contact_distance", "0.02", "0", "0.1", "m", ""),
+    number("merger.companion.min_motion", "0.002", "0.0001", "1", "m", ""),
+    number("merger.companion.min_turn_deg", "0.5", "0.01", "180", "deg", ""),
+    mapping("merger.world", "camera pose in the world frame, for world_position/world_orientation"),
+    list("merger.world.translation", "[0.0, 0.0, 0.0]", 3, "m", "camera position in the world"),
+    list("merger.world.rotation", "[1.0, 0.0, 0.0, 0.0]", 4, "", "unit quaternion w, x, y, z"),
+    blank(),
+    note("", "mfot-pcl-baseline only: PCL's KLDAdaptiveParticleFilterOMPTracker with the settings of PCL's tracking example (apps/src/openni_tracking.cpp), one per object, on mfot's frames (configs/pcl_baseline.yaml changes nothing by default)."),
+    mapping("pcl_baseline", ""),
+    integer("pcl_baseline.particles", "400", "1", "100000", "", "initial particle count (setParticleNum)"),
+    integer("pcl_baseline.max_particles", "500", "1", "100000", "", "KLD bound's ceiling (setMaximumParticleNum), at least particles"),
+    number("pcl_baseline.kld_delta", "0.99", "1e-6", "0.999999", "", "KLD bound confidence (setDelta)"),
+    number("pcl_baseline.kld_epsilon", "0.2", "1e-6", "10", "", "KLD bound error (setEpsilon)"),
+    number("pcl_baseline.bin_size", "0.1", "1e-6", "10", "", "KLD histogram bin in every state dimension, m and rad (setBinSize)"),
+    note("pcl_baseline", "Std devs x, y, z (m), roll, pitch, yaw (rad), each [0, 1]. PCL takes variances: the example's 0.015^2 (x 40 for the angles) and 1e-5."),
+    list("pcl_baseline.step_noise_sigma", "[0.015, 0.015, 0.015, 0.0949, 0.0949, 0.0949]", 6, "", "diffusion per step"),
+    list("pcl_baseline.initial_noise_sigma", "[0.00316, 0.00316, 0.00316, 0.00316, 0.00316, 0.00316]", 6, "", "around the first pose"),
+    integer("pcl_baseline.iterations", "1", "1", "100", "", "filter iterations per frame (setIterationNum)"),
+    number("pcl_baseline.color_weight", "0.1", "0", "100", "", "HSVColorCoherence weight; DistanceCoherence keeps weight 1"),
+    number("pcl_baseline.max_distance", "0.01", "1e-6", "1", "m", "nearest pairs farther than this add nothing (ApproxNearestPairPointCloudCoherence)"),
+    number("pcl_baseline.octree_resolution", "0.01", "0.0001", "1", "m", "pcl::search::Octree leaf of the coherence's search"),
+    number("pcl_baseline.reference_leaf", "0.01", "0", "0.1", "m", "the reference (our first-frame model) is voxelised to this leaf like the example's input; 0 keeps it"),
+    integer("pcl_baseline.threads", "1", "1", "256", "", "OpenMP threads of the OMP tracker (1: comparable with mfot-inprocess on one core)"),
+    integer("pcl_baseline.seed", "1", "0", "4294967295", "", "seeds rand(), the only generator of PCL's tracker its API lets us seed"),
+    blank(),
+};
+// clang-format on
+
+}  // namespace
+
+std::span<const OptionEntry> option_table() { return kTable; }
+
+}  // namespace mfot::service

@@ -1,0 +1,124 @@
+// The core's option structs against the declarations (services/common/src/option_table.cpp): a
+// library user who builds them in code should run what the services run.
+#include "mfot/service/config.hpp"
+#include "mfot/service/options.hpp"
+#include "mfot/service/pipeline_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+#include <type_traits>
+
+namespace mfot::service {
+namespace {
+
+// The struct defaults that still differ from the declared (shipped) ones: the option structs keep
+// the thesis's method there (features off, its values), and the core's tests build them that way.
+// Moving them to the declared values means giving those tests the thesis's values explicitly; until
+// then they are listed here, and the list may only shrink: a listed key whose struct default comes to
+// agree fails too (take it off the list).
+const std::set<std::string> kStructKeepsTheThesis = {
+    "preprocess.plane_margin_sigmas",
+    "preprocess.table_prism",
+    "preprocess.queue_frames",
+    "tracker.particles",
+    "tracker.companion_fraction",
+    "tracker.hold_occluded_share",
+    "tracker.hold_min_scored_share",
+    "tracker.exclude_occluders",
+    "tracker.confidence_seen_through_weight",
+    "tracker.follow_isolated",
+    "tracker.icp_iterations",
+    "tracker.icp_min_paired_share",
+    "tracker.icp_max_points",
+    "tracker.icp_final_points",
+    "tracker.icp_anchor_weight",
+    "tracker.companion_pose_check",
+    "tracker.companion_turn_min_deg",
+    "tracker.queue_scenes",
+    "tracker.exclude_claimed_radius",
+    "tracker.last_pose_check_occluded_share",
+    "tracker.particles_follow_refinement",
+    "merger.alpha",
+    "merger.propagation_min_seed_share",
+    "merger.reidentify_grown",
+    "merger.reidentify_grown_min_share",
+    "merger.hidden_occluded_share",
+    "merger.new_object_held_margin",
+    "merger.discovery.seed_resolution",
+    "merger.discovery.confirm_frames",
+    "merger.discovery.confirm_join",
+    "merger.discovery.boundary_radius",
+    "merger.join_frames",
+    "merger.split_frames",
+    "merger.split_min_departure",
+    "merger.carry.frames",
+    "merger.carry.seen_through_share",
+    "merger.companion.contact_distance",
+    "merger.refit.enabled",
+    "merger.refit.min_rotation_deg",
+    "merger.refit.icp_min_paired_share",
+    "merger.refit.icp_max_rotation_deg",
+    "merger.refit.icp_max_points",
+};
+
+template <class T>
+void expect_same(const T& loaded, const T& plain, const char* key) {
+  const bool agree = [&] {
+    if constexpr (std::is_floating_point_v<T>) {
+      return std::abs(static_cast<double>(loaded) - static_cast<double>(plain)) <=
+             1e-6 * std::max(1.0, std::abs(static_cast<double>(loaded)));
+    } else {
+      return loaded == plain;
+    }
+  }();
+  if (kStructKeepsTheThesis.count(key)) {
+    EXPECT_FALSE(agree) << key << ": the option struct's default now agrees with the declared one: take it off "
+                                  "kStructKeepsTheThesis";
+  } else {
+    const auto text = [](const T& v) {
+      if constexpr (std::is_enum_v<T>) {
+        return std::to_string(static_cast<int>(v));
+      } else {
+        return ::testing::PrintToString(v);
+      }
+    };
+    EXPECT_TRUE(agree) << key << ": the option struct's default " << text(plain) << " differs from the declared "
+                       << text(loaded) << " (services/common/src/option_table.cpp)";
+  }
+}
+
+// Every key the loaders read straight into an option struct field: the default the loader gives it
+// (the declared one) against the field's own default.
+TEST(OptionDefaults, TheOptionStructsDefaultToTheDeclaredValues) {
+  const YAML::Node defaults = default_config();
+  const PreprocessConfig loaded_preprocess = load_preprocess_config(defaults);
+  const PreprocessConfig plain_preprocess;
+  const TrackerConfig loaded_tracker = load_tracker_config(defaults);
+  const TrackerConfig plain_tracker;
+  const MergerConfig loaded_merger = load_merger_config(defaults);
+  const MergerConfig plain_merger;
+#include "option_defaults.inc"
+  // The tracker keys read by helpers (and by both loaders).
+  expect_same(loaded_tracker.likelihood.grid.cell_size, plain_tracker.likelihood.grid.cell_size, "tracker.cell_size");
+  expect_same(loaded_merger.manager.registration.cell_size, plain_merger.manager.registration.cell_size,
+              "tracker.cell_size");
+  expect_same(loaded_tracker.step.hypothesis.margin, plain_tracker.step.hypothesis.margin, "tracker.hypothesis_margin");
+  expect_same(loaded_tracker.step.exclude_claimed_radius, plain_tracker.step.exclude_claimed_radius,
+              "tracker.exclude_claimed_radius");
+  expect_same(loaded_tracker.step.last_pose_check_occluded_share, plain_tracker.step.last_pose_check_occluded_share,
+              "tracker.last_pose_check_occluded_share");
+  expect_same(loaded_tracker.filter.follow_replaced_estimate, plain_tracker.filter.follow_replaced_estimate,
+              "tracker.particles_follow_refinement");
+  for (const auto* fit : {&plain_tracker.step.fit, &plain_merger.manager.registration.fit}) {
+    expect_same(loaded_tracker.step.fit.match_distance, fit->match_distance, "tracker.confidence_match_distance");
+    expect_same(loaded_tracker.step.fit.claim_margin, fit->claim_margin, "tracker.confidence_claim_margin");
+    expect_same(loaded_tracker.step.fit.min_claimed_points, fit->min_claimed_points, "tracker.confidence_min_points");
+  }
+}
+
+}  // namespace
+}  // namespace mfot::service
