@@ -22,9 +22,12 @@
 //     tallest object, carried onto the top of a box or can, 0.5 mm above it), tumble (lifted,
 //     2-2.75 turns about a horizontal body axis while rocking, lands on a face). Peak speeds stay
 //     under 0.27 m/s and 180 deg/s; every object stays on or above the table.
-//  6. Mover: a hand (grasping from above) or a parallel gripper (its wrist rod along the turn axis
-//     for spin and tumble, so whole turns are wrist turns; from above otherwise) comes in, holds the
-//     object rigidly for the programme and leaves.
+//  6. Mover: a hand (slide, push, stack: grasping from above, objects 9 cm tall or more) or a
+//     parallel gripper (its wrist rod along the turn axis for spin and tumble, so whole turns are
+//     wrist turns; from the side for tilt, so the rod stays above the horizontal; from above
+//     otherwise) holds the object rigidly for the programme. It comes in high over every object
+//     (hand: from the nearer side; gripper: straight down), and the table under it while it holds
+//     is kept free of other objects; it leaves the same way.
 //  7. Summary: motion class, mover, objects' shapes and textures, spin axis and camera (scene.yaml).
 
 #include "script.hpp"
@@ -222,6 +225,8 @@ struct Generator {
   std::vector<Circle> taken;  // footprints at frame 0 and swept by the motion
   std::vector<Member> members;
   double duration = 0.0;      // of the programme, seconds
+  Mover mover = Mover::none;
+  float push_heading = 0.0f;  // push: direction of the chain's line (world yaw)
 
   explicit Generator(std::uint64_t seed) : draw(seed) {}
 
@@ -302,6 +307,7 @@ struct Generator {
     std::vector<float> extent(count), yaw(count), gap(count, 0.0f);
     for (int tries = 0;; ++tries) {
       const float heading = draw.f(-kPi, kPi);
+      push_heading = heading;
       const Eigen::Vector2f dir(std::cos(heading), std::sin(heading));
       for (int k = 0; k < count; ++k) {
         const Primitive& p = infos[k].primitives.front();
@@ -426,6 +432,9 @@ struct Generator {
     const double turn = frames_of(std::max(draw(1.2, 2.0), 1.5 * angle / kMaxAngularSpeed));
     const double hold = frames_of(draw(0.5, 1.0));
     duration = 2.0 * rise + 2.0 * turn + hold;
+    // A gripper holds it from the side whose normal the tilt turns upwards: its rod stays above
+    // the horizontal.
+    grasp_axis = rest.linear().transpose() * Eigen::Vector3f::UnitZ().cross(axis);
     const int body = add_object(info, shape, texture, rest, true);
     members.push_back({body, [=](double t) {
                          Iso pose = rest;
@@ -508,7 +517,8 @@ struct Generator {
     // A box lands on whichever face the quarter turns put down; other shapes turn twice, landing upright.
     const int quarters = shape == Shape::box ? 8 + draw.index(4) : 8;
     const float tumble = random_sign() * quarters * 0.5f * kPi;
-    const float rock = random_sign() * draw.f(0.8, 1.2);
+    // Rocking would swing a gripper's rod (along the tumble axis) down to the table: none then.
+    const float rock = random_sign() * draw.f(0.8, 1.2) * (mover == Mover::gripper ? 0.0f : 1.0f);
     const float lift = lift_for(half, hh, 0.06f);
     const double rise = frames_of(std::max(0.8, 1.5 * lift / kMaxLinearSpeed));
     const double turn = frames_of(1.5 * std::hypot(tumble, 2.0f * kPi * rock) / kPeakTurn);
@@ -542,6 +552,31 @@ struct Generator {
 
   float random_sign() { return draw(0.0, 1.0) < 0.5 ? -1.0f : 1.0f; }
 
+  // Reserves the table area under the mover (body info, frame grip in the held body's frame) at
+  // the held body's poses: points of its primitives (every 4 cm) lower than any object can reach.
+  void reserve_mover(const BodyInfo& body, const Iso& grip, const std::vector<Iso>& held_poses) {
+    constexpr float kStep = 0.04f, kHighest = 0.33f;
+    for (const Iso& held : held_poses) {
+      const Iso m = held * grip;
+      for (const Primitive& prim : body.primitives) {
+        const Iso to_world = m * prim.pose.isometry();
+        std::array<int, 3> n{};
+        for (int i = 0; i < 3; ++i) n[i] = 1 + static_cast<int>(std::ceil(prim.size[i] / kStep));
+        for (int i = 0; i < n[0]; ++i) {
+          for (int j = 0; j < n[1]; ++j) {
+            for (int k = 0; k < n[2]; ++k) {
+              const Eigen::Vector3f f(n[0] > 1 ? static_cast<float>(i) / (n[0] - 1) - 0.5f : 0.0f,
+                                      n[1] > 1 ? static_cast<float>(j) / (n[1] - 1) - 0.5f : 0.0f,
+                                      n[2] > 1 ? static_cast<float>(k) / (n[2] - 1) - 0.5f : 0.0f);
+              const Eigen::Vector3f w = to_world * f.cwiseProduct(prim.size);
+              if (w.z() < kHighest) taken.push_back({w.head<2>(), 0.75f * kStep});
+            }
+          }
+        }
+      }
+    }
+  }
+
   static BodyInfo shrunk(const BodyInfo& info, float factor) {
     BodyInfo out = info;
     for (Primitive& p : out.primitives) {
@@ -571,10 +606,11 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
   // 2. Motion class and mover.
   const auto motion = static_cast<Motion>(draw.index(static_cast<int>(kMotionNames.size())));
   const bool turns_whole = motion == Motion::spin || motion == Motion::tumble;
-  const Mover mover = turns_whole ? (draw(0.0, 1.0) < 0.5 ? Mover::gripper : Mover::none)
-                                  : static_cast<Mover>(draw.index(3));
-  summary.motion = kMotionNames[static_cast<int>(motion)];
-  summary.mover = kMoverNames[static_cast<int>(mover)];
+  // A hand grasps from above and keeps upright: it moves objects on or over the table (slide,
+  // push, stack); turns are a gripper's.
+  const bool hand_ok = motion == Motion::slide || motion == Motion::push || motion == Motion::stack;
+  Mover mover = !hand_ok || turns_whole ? (draw(0.0, 1.0) < 0.5 ? Mover::gripper : Mover::none)
+                                        : static_cast<Mover>(draw.index(3));
 
   // 3. Object count and the moved objects.
   const int own = motion == Motion::push ? 2 + draw.index(2) : motion == Motion::stack ? 2 : 1;
@@ -591,6 +627,11 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
     textures.push_back(g.any_texture());
     infos.push_back(make_shape(draw, k + 1, shape, textures.back(), 1.0f));
   }
+  // The hand's fingers hang 9 cm below its palm: shorter objects are held by the gripper.
+  if (mover == Mover::hand && 2.0f * half_height(infos[0]) < 0.09f) mover = Mover::gripper;
+  g.mover = mover;
+  summary.motion = kMotionNames[static_cast<int>(motion)];
+  summary.mover = kMoverNames[static_cast<int>(mover)];
 
   // 4. Layout of the moved objects, then of the others.
   switch (motion) {
@@ -601,6 +642,48 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
     case Motion::stack: g.stack(infos[0], shapes[0], textures[0], infos[1], shapes[1], textures[1]); break;
     case Motion::tumble: g.tumble(infos[0], shapes[0], textures[0]); break;
   }
+  // The mover's grip (its frame in the held body's frame) and the table area under it.
+  ScriptBuilder& b = g.builder;
+  const int held_body = motion == Motion::stack ? g.stack_plan.moved : g.members.front().body;
+  const BodyInfo held_info = b.info(held_body);
+  const Iso start_pose = motion == Motion::stack ? g.stack_plan.from : g.members.front().pose(0.0);
+  Iso grip = Iso::Identity();
+  BodyInfo mover_info;
+  Iso mover_home = Iso::Identity();
+  float hand_side = 1.0f;
+  if (mover == Mover::hand) {
+    hand_side = start_pose.translation().x() < 0.0f ? -1.0f : 1.0f;
+    // Fingers point into the table from the nearer side; when pushing, across the push.
+    float heading = hand_side < 0.0f ? 0.0f : kPi;
+    if (motion == Motion::push) {
+      heading = g.push_heading + 0.5f * kPi;
+      if (std::cos(heading) * hand_side > 0.0f) heading += kPi;
+    }
+    const float yaw0 = std::atan2(start_pose.linear()(1, 0), start_pose.linear()(0, 0));
+    grip = top_grasp(held_info, Iso::Identity(), heading - yaw0);
+    mover_info = make_hand(kMoverId);
+  } else if (mover == Mover::gripper) {
+    Eigen::Vector3f axis = g.grasp_axis;
+    // A turn's rod leaves upwards (away from the camera when the axis is horizontal); tilt's side
+    // is set by the tilt.
+    const Eigen::Vector3f world_axis = start_pose.linear() * axis;
+    if (turns_whole && (world_axis.z() < -1e-4f || (std::abs(world_axis.z()) <= 1e-4f && world_axis.y() < 0.0f))) {
+      axis = -axis;
+    }
+    float grip_half = 0.0f, finger = 0.0f;
+    grip = gripper_offset(half_extents(held_info), axis, grip_half, finger);
+    mover_info = make_gripper(kMoverId, grip_half, finger);
+  }
+  if (mover != Mover::none) {
+    std::vector<Iso> held_poses;
+    if (motion == Motion::stack) {
+      held_poses = {g.stack_plan.from, g.stack_plan.onto};
+    } else {
+      for (double t = 0.0; t < g.duration + 0.2; t += 0.2) held_poses.push_back(g.members.front().pose(std::min(t, g.duration)));
+    }
+    g.reserve_mover(mover_info, grip, held_poses);
+  }
+
   float scale = 1.0f;
   int next_id = own + 1;
   float tallest = 0.0f;
@@ -624,39 +707,33 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
   if (motion == Motion::stack) g.stack_programme(tallest);
 
   // 5. and 6. The mover's approach, the programme keyed at every frame, the withdrawal.
-  ScriptBuilder& b = g.builder;
   const Member& held = g.members.front();
-  const Iso start_pose = held.pose(0.0);
-  Iso grip = Iso::Identity();  // mover frame in the held body's frame
-  Iso mover_home = Iso::Identity();
+  // Above every object: a hand's palm 15 cm over the tallest, a gripper straight up from the grasp.
+  auto hover_over = [&](const Iso& grasp) {
+    Iso hover = grasp;
+    hover.translation().z() =
+        mover == Mover::hand ? std::max(grasp.translation().z(), tallest) + 0.15f : grasp.translation().z() + 0.08f;
+    return hover;
+  };
+  auto home_of = [&](const Iso& hover) {
+    if (mover == Mover::gripper) {
+      Iso home = hover;
+      home.translation().z() += 0.40f;
+      return home;
+    }
+    return at(hand_side * 0.75f, hover.translation().y(), std::max(0.35f, hover.translation().z()),
+              hand_side < 0.0f ? 0.0f : kPi);
+  };
   int mover_body = -1;
-  if (mover == Mover::hand) {
-    const float side = start_pose.translation().x() < 0.0f ? -1.0f : 1.0f;
-    const float heading = side < 0.0f ? 0.0f : kPi;  // fingers pointing into the table from the nearer side
-    const float yaw0 = std::atan2(start_pose.linear()(1, 0), start_pose.linear()(0, 0));
-    grip = top_grasp(b.info(held.body), Iso::Identity(), heading - yaw0);
-    mover_home = at(side * 0.75f, start_pose.translation().y(), 0.35f, heading);
-    mover_body = b.add_body(make_hand(kMoverId), mover_home);
-  } else if (mover == Mover::gripper) {
-    const BodyInfo& info = b.info(held.body);
-    Eigen::Vector3f axis = g.grasp_axis;
-    // The rod leaves upwards (or away from the camera when the axis is horizontal).
-    const Eigen::Vector3f world_axis = start_pose.linear() * axis;
-    if (world_axis.z() < -0.2f || (std::abs(world_axis.z()) <= 0.2f && world_axis.y() < 0.0f)) axis = -axis;
-    float grip_half = 0.0f, finger = 0.0f;
-    grip = gripper_offset(half_extents(info), axis, grip_half, finger);
-    const Iso at_grasp = start_pose * grip;
-    mover_home = at_grasp;
-    mover_home.translation() += 0.35f * at_grasp.linear().col(2);
-    mover_body = b.add_body(make_gripper(kMoverId, grip_half, finger), mover_home);
+  if (mover != Mover::none) {
+    mover_home = home_of(hover_over(start_pose * grip));
+    mover_body = b.add_body(mover_info, mover_home);
   }
   const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
   double t_start = frames_of(draw(0.5, 1.0));
-  Iso hover_start = Iso::Identity();
   if (mover_body >= 0) {
     const Iso grasp = start_pose * grip;
-    hover_start = grasp;
-    hover_start.translation() += 0.08f * (mover == Mover::hand ? Eigen::Vector3f::UnitZ() : grasp.linear().col(2).eval());
+    const Iso hover_start = hover_over(grasp);
     const double reach = frames_of(std::max(0.8, min_move_duration(mover_home, hover_start, zero)));
     const double down = frames_of(std::max(0.5, min_move_duration(hover_start, grasp, zero)));
     const double t0 = frames_of(draw(0.3, 0.8));
@@ -676,14 +753,14 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
   double t_end = (first + steps) / kFps;
   if (mover_body >= 0) {
     const Iso grasp = held.pose(g.duration) * grip;
-    Iso hover = grasp;
-    hover.translation() += 0.08f * (mover == Mover::hand ? Eigen::Vector3f::UnitZ() : grasp.linear().col(2).eval());
+    const Iso hover = hover_over(grasp);
+    const Iso home = home_of(hover);
     const double up = frames_of(std::max(0.5, min_move_duration(grasp, hover, zero)));
-    const double away = frames_of(std::max(0.8, min_move_duration(hover, mover_home, zero)));
+    const double away = frames_of(std::max(0.8, min_move_duration(hover, home, zero)));
     const double hold = frames_of(0.3);
     b.key(mover_body, t_end + hold, grasp);
     b.key(mover_body, t_end + hold + up, hover);
-    b.key(mover_body, t_end + hold + up + away, mover_home);
+    b.key(mover_body, t_end + hold + up + away, home);
     t_end += hold + up + away;
   }
   b.wait(t_end);
