@@ -25,9 +25,9 @@
 //  6. Mover: a hand (slide, push, stack: grasping from above, objects 9 cm tall or more) or a
 //     parallel gripper (its wrist rod along the turn axis for spin and tumble, so whole turns are
 //     wrist turns; from the side for tilt, so the rod stays above the horizontal; from above
-//     otherwise) holds the object rigidly for the programme. It comes in high over every object
-//     (hand: from the nearer side; gripper: straight down), and the table under it while it holds
-//     is kept free of other objects; it leaves the same way.
+//     otherwise) holds the object rigidly for the programme. It waits out of the image at the
+//     nearer table side, comes in high over every object and down onto the grasp, and leaves the
+//     same way; the table under it while it holds is kept free of other objects.
 //  7. Summary: motion class, mover, objects' shapes and textures, spin axis and camera (scene.yaml).
 
 #include "script.hpp"
@@ -650,9 +650,8 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
   Iso grip = Iso::Identity();
   BodyInfo mover_info;
   Iso mover_home = Iso::Identity();
-  float hand_side = 1.0f;
+  const float hand_side = start_pose.translation().x() < 0.0f ? -1.0f : 1.0f;  // the mover's table side
   if (mover == Mover::hand) {
-    hand_side = start_pose.translation().x() < 0.0f ? -1.0f : 1.0f;
     // Fingers point into the table from the nearer side; when pushing, across the push.
     float heading = hand_side < 0.0f ? 0.0f : kPi;
     if (motion == Motion::push) {
@@ -708,21 +707,23 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
 
   // 5. and 6. The mover's approach, the programme keyed at every frame, the withdrawal.
   const Member& held = g.members.front();
-  // Above every object: a hand's palm 15 cm over the tallest, a gripper straight up from the grasp.
+  // Straight above the grasp, over every object: a hand's palm 15 cm over the tallest (its fingers
+  // hang 9 cm), a gripper's palm 12 cm (its fingers reach 5 cm).
   auto hover_over = [&](const Iso& grasp) {
     Iso hover = grasp;
-    hover.translation().z() =
-        mover == Mover::hand ? std::max(grasp.translation().z(), tallest) + 0.15f : grasp.translation().z() + 0.08f;
+    hover.translation().z() = std::max(grasp.translation().z() + 0.08f, tallest + (mover == Mover::hand ? 0.15f : 0.12f));
     return hover;
   };
+  // Where the mover waits, out of the image at the nearer table side and as high as its hover: the
+  // way in and out runs over every object.
   auto home_of = [&](const Iso& hover) {
+    const float z = std::max(0.35f, hover.translation().z());
     if (mover == Mover::gripper) {
       Iso home = hover;
-      home.translation().z() += 0.40f;
+      home.translation() = Eigen::Vector3f(hand_side * 0.75f, hover.translation().y(), z);
       return home;
     }
-    return at(hand_side * 0.75f, hover.translation().y(), std::max(0.35f, hover.translation().z()),
-              hand_side < 0.0f ? 0.0f : kPi);
+    return at(hand_side * 0.75f, hover.translation().y(), z, hand_side < 0.0f ? 0.0f : kPi);
   };
   int mover_body = -1;
   if (mover != Mover::none) {
