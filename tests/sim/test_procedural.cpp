@@ -253,16 +253,15 @@ TEST(Procedural, MotionIsPhysicallyPlausibleOverSeeds) {
         for (const Primitive& prim : bodies[a].primitives) {
           const auto samples = volume_samples(prim, world[a]);
           for (const Eigen::Vector3f& p : samples) {
-            ASSERT_GT(p.z(), -0.001f) << sim.summary().source_name() << " mover " << sim.summary().mover << " frame " << frame << " body " << bodies[a].id
-                                      << " below the table";
+            ASSERT_GT(p.z(), -0.001f) << sim.summary().source_name() << " mover " << sim.summary().mover << " frame "
+                                      << frame << " body " << bodies[a].id << " below the table";
           }
           for (std::size_t b = 0; b < bodies.size(); ++b) {
             if (b == a) continue;
             for (const Primitive& other : bodies[b].primitives) {
               for (const Eigen::Vector3f& p : samples) {
-                ASSERT_FALSE(inside(other, world[b], p, -0.001f))
-                    << "seed " << seed << " frame " << frame << ": body " << bodies[a].id << " inside body "
-                    << bodies[b].id;
+                ASSERT_FALSE(inside(other, world[b], p, -0.001f)) << "seed " << seed << " frame " << frame << ": body "
+                                                                  << bodies[a].id << " inside body " << bodies[b].id;
               }
             }
           }
@@ -295,7 +294,9 @@ float turned(const Track& t) {
   return sum;
 }
 
-float travelled(const Track& t) { return (t.poses.back().translation() - t.poses.front().translation()).head<2>().norm(); }
+float travelled(const Track& t) {
+  return (t.poses.back().translation() - t.poses.front().translation()).head<2>().norm();
+}
 
 float height_range(const Track& t) {
   float lo = 1e9f, hi = -1e9f;
@@ -325,7 +326,8 @@ TEST_P(MotionClass, BehavesAsNamed) {
   }
   // A visible mover comes into the scene and holds the object while it moves.
   if (s.mover != "none") {
-    const auto hand = std::find_if(sim.bodies().begin(), sim.bodies().end(), [](const BodyInfo& b) { return b.is_hand; });
+    const auto hand =
+        std::find_if(sim.bodies().begin(), sim.bodies().end(), [](const BodyInfo& b) { return b.is_hand; });
     ASSERT_NE(hand, sim.bodies().end());
     const Track& h = tracks.at(hand->id);
     const std::size_t mid = h.poses.size() / 2;

@@ -42,8 +42,8 @@ namespace {
 
 constexpr float kPi = 3.14159265f;
 constexpr float kDeg = kPi / 180.0f;
-constexpr float kGap = 0.0005f;        // touching contacts, metres
-constexpr float kClearance = 0.04f;    // least gap between footprint circles at frame 0, metres
+constexpr float kGap = 0.0005f;      // touching contacts, metres
+constexpr float kClearance = 0.04f;  // least gap between footprint circles at frame 0, metres
 constexpr float kXMin = -0.34f, kXMax = 0.34f, kYMin = -0.16f, kYMax = 0.40f;  // table area used, world
 constexpr double kPeakTurn = 170.0 * 3.14159265 / 180.0;  // rad/s, peak of the fast turns (spin, tumble)
 constexpr int kMaxObjects = 20;
@@ -218,13 +218,16 @@ struct Member {
   std::function<Iso(double)> pose;
 };
 
+// The generator of one procedural scene (steps 4-7 of the file comment): owns the seeded draws,
+// the script being built and the summary; each motion method lays out the moved objects of its
+// class and sets their programme (members, duration).
 struct Generator {
   Draw draw;
   ScriptBuilder builder;
   SceneSummary summary;
   std::vector<Circle> taken;  // footprints at frame 0 and swept by the motion
   std::vector<Member> members;
-  double duration = 0.0;      // of the programme, seconds
+  double duration = 0.0;  // of the programme, seconds
   Mover mover = Mover::none;
   float push_heading = 0.0f;  // push: direction of the chain's line (world yaw)
 
@@ -234,7 +237,8 @@ struct Generator {
   Texture any_texture() { return static_cast<Texture>(draw.index(4)); }
 
   int add_object(const BodyInfo& info, Shape shape, Texture texture, const Iso& pose, bool moved) {
-    summary.objects.push_back({info.id, kShapeNames[static_cast<int>(shape)], kTextureNames[static_cast<int>(texture)], moved});
+    summary.objects.push_back(
+        {info.id, kShapeNames[static_cast<int>(shape)], kTextureNames[static_cast<int>(texture)], moved});
     return builder.add_body(info, pose);
   }
 
@@ -273,8 +277,8 @@ struct Generator {
         const float heading = draw.f(-kPi, kPi), length = draw.f(0.10, 0.22), turn = draw.f(-0.9, 0.9);
         const Eigen::Vector2f to = at_xy + length * Eigen::Vector2f(std::cos(heading), std::sin(heading));
         if (!in_area(to, r)) continue;
-        const double time = frames_of(std::max({draw(1.5, 2.5), 1.5 * length / kMaxLinearSpeed,
-                                                1.5 * std::abs(turn) / kMaxAngularSpeed}));
+        const double time = frames_of(
+            std::max({draw(1.5, 2.5), 1.5 * length / kMaxLinearSpeed, 1.5 * std::abs(turn) / kMaxAngularSpeed}));
         legs.push_back({at_xy, to, yaw, yaw + turn, t, time});
         sweep(at_xy, to, r);
         at_xy = to;
@@ -334,8 +338,8 @@ struct Generator {
       bool inside = true;
       for (int k = 0; k < count && inside; ++k) {
         const float r = footprint_radius(infos[k]);
-        inside = in_area(origin + start[k] * dir, r) &&
-                 in_area(origin + std::max(start[k], travel + contact[k]) * dir, r);
+        inside =
+            in_area(origin + start[k] * dir, r) && in_area(origin + std::max(start[k], travel + contact[k]) * dir, r);
       }
       if (!inside && tries < 200) continue;
       if (!inside) {
@@ -473,8 +477,8 @@ struct Generator {
     stack_plan.onto = at(b.x(), b.y(), base_top + kGap + half_height(info), yaw0 + draw.f(-0.6, 0.6));
     stack_plan.moved_hh = half_height(info);
     stack_plan.moved = add_object(info, shape, texture, stack_plan.from, true);
-    stack_plan.base = add_object(base_info, base_shape, base_texture, at(b.x(), b.y(), half_height(base_info),
-                                                                          draw.f(-kPi, kPi)), false);
+    stack_plan.base = add_object(base_info, base_shape, base_texture,
+                                 at(b.x(), b.y(), half_height(base_info), draw.f(-kPi, kPi)), false);
     summary.stack_base_id = base_info.id;
   }
 
@@ -542,9 +546,10 @@ struct Generator {
                          Iso pose = rest;
                          pose.translation().z() += static_cast<float>(eased(t, rise)) * lift;
                          const auto s = static_cast<float>(eased(t - rise, turn));
-                         pose.linear() = Eigen::AngleAxisf(s * tumble, tumble_axis).toRotationMatrix() *
-                                         Eigen::AngleAxisf(rock * std::sin(2.0f * kPi * s), rock_axis).toRotationMatrix() *
-                                         rest.linear();
+                         pose.linear() =
+                             Eigen::AngleAxisf(s * tumble, tumble_axis).toRotationMatrix() *
+                             Eigen::AngleAxisf(rock * std::sin(2.0f * kPi * s), rock_axis).toRotationMatrix() *
+                             rest.linear();
                          pose.translation().head<2>() = xy + s * (to - xy);
                          return pose;
                        }});
@@ -635,12 +640,24 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
 
   // 4. Layout of the moved objects, then of the others.
   switch (motion) {
-    case Motion::slide: g.slide(infos[0], shapes[0], textures[0]); break;
-    case Motion::push: g.push(own, infos, shapes, textures); break;
-    case Motion::spin: g.spin(infos[0], shapes[0], textures[0]); break;
-    case Motion::tilt: g.tilt(infos[0], shapes[0], textures[0]); break;
-    case Motion::stack: g.stack(infos[0], shapes[0], textures[0], infos[1], shapes[1], textures[1]); break;
-    case Motion::tumble: g.tumble(infos[0], shapes[0], textures[0]); break;
+    case Motion::slide:
+      g.slide(infos[0], shapes[0], textures[0]);
+      break;
+    case Motion::push:
+      g.push(own, infos, shapes, textures);
+      break;
+    case Motion::spin:
+      g.spin(infos[0], shapes[0], textures[0]);
+      break;
+    case Motion::tilt:
+      g.tilt(infos[0], shapes[0], textures[0]);
+      break;
+    case Motion::stack:
+      g.stack(infos[0], shapes[0], textures[0], infos[1], shapes[1], textures[1]);
+      break;
+    case Motion::tumble:
+      g.tumble(infos[0], shapes[0], textures[0]);
+      break;
   }
   // The mover's grip (its frame in the held body's frame) and the table area under it.
   ScriptBuilder& b = g.builder;
@@ -678,7 +695,8 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
     if (motion == Motion::stack) {
       held_poses = {g.stack_plan.from, g.stack_plan.onto};
     } else {
-      for (double t = 0.0; t < g.duration + 0.2; t += 0.2) held_poses.push_back(g.members.front().pose(std::min(t, g.duration)));
+      for (double t = 0.0; t < g.duration + 0.2; t += 0.2)
+        held_poses.push_back(g.members.front().pose(std::min(t, g.duration)));
     }
     g.reserve_mover(mover_info, grip, held_poses);
   }
@@ -711,7 +729,8 @@ Script procedural_scenario(const ScenarioOptions& options, int attempt) {
   // hang 9 cm), a gripper's palm 12 cm (its fingers reach 5 cm).
   auto hover_over = [&](const Iso& grasp) {
     Iso hover = grasp;
-    hover.translation().z() = std::max(grasp.translation().z() + 0.08f, tallest + (mover == Mover::hand ? 0.15f : 0.12f));
+    hover.translation().z() =
+        std::max(grasp.translation().z() + 0.08f, tallest + (mover == Mover::hand ? 0.15f : 0.12f));
     return hover;
   };
   // Where the mover waits, out of the image at the nearer table side and as high as its hover: the
