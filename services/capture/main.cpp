@@ -36,7 +36,9 @@ int main(int argc, char** argv) {
   auto* o_source = app.add_option("--source", cli.source, "sim | tum | pcd | oni | openni2 | lcmlog")
                        ->check(CLI::IsMember({"sim", "tum", "pcd", "oni", "openni2", "lcmlog"}));
   auto* o_scenario = app.add_option(
-      "--scenario", cli.scenario, "sim scenario: stack | contact | rotate | apart | static | random | spin | tumble | slide | cross");
+      "--scenario", cli.scenario,
+      "sim scenario: stack | contact | rotate | apart | static | random | spin | tumble | slide | cross | procedural "
+      "(procedural seeds: 1-999 development, 1000 and up acceptance only)");
   auto* o_seed = app.add_option("--seed", cli.seed, "sim: scenario and sensor-noise seed");
   auto* o_sim_frames = app.add_option("--sim-frames", cli.sim_frames, "sim: frames to render, 0 = the scenario's length");
   auto* o_folder = app.add_option("--folder", cli.tum_folder, "tum: the TUM RGB-D folder; pcd: the folder of organised PCD files");

@@ -60,6 +60,7 @@ int run(const Options& cli) {
                                            RunOutputsOptions{merger.write_labels, merger.fitting_distance, false},
                                            malformed);
     truth_writer = std::make_unique<GroundTruthWriter>(cli.out_dir + "/groundtruth");
+    truth_writer->write_scene(source->scene_yaml());
     timing.open(cli.out_dir + "/timing.csv");
     if (!timing) throw std::runtime_error(cli.out_dir + "/timing.csv: cannot create file");
     timing << "frame,frame_ms,cpu_ms\n";

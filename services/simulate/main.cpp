@@ -23,9 +23,12 @@ int main(int argc, char** argv) {
   double depth_scale = 5000.0;
   app.add_option("output", output, "folder to create (must not already hold a dataset)")->required();
   app.add_option("--scenario", options.scenario.name,
-                 "stack | contact | rotate | apart | static | random | spin | tumble | slide | cross")
+                 "stack | contact | rotate | apart | static | random | spin | tumble | slide | cross | procedural "
+                 "(procedural: a seeded generated scene, its motion class, shapes and mover in groundtruth/scene.yaml)")
       ->check(CLI::IsMember(mfot::sim::scenario_names()));
-  app.add_option("--seed", options.scenario.seed, "scenario and sensor-noise seed");
+  app.add_option("--seed", options.scenario.seed,
+                 "scenario and sensor-noise seed; procedural: 1-999 for development, 1000 and up for acceptance only "
+                 "(never tune on them)");
   app.add_option("--frames", options.scenario.num_frames, "frames to render, 0 = the scenario's own length");
   app.add_option("--num-objects", options.scenario.num_objects, "random scenario: objects [1, 16]");
   app.add_option("--object-speed", options.scenario.speed, "random scenario: mean object speed, m/s (0, 0.2]");
@@ -43,10 +46,11 @@ int main(int argc, char** argv) {
     writer_options.folder = output;
     writer_options.depth_scale = depth_scale;
     mfot::service::TumDatasetWriter writer(writer_options);
+    writer.write_scene(simulator.summary().yaml());
 
     const int total = simulator.num_frames();
-    spdlog::info("rendering scenario '{}' (seed {}): {} frames at {}x{} to {}", options.scenario.name,
-                 options.scenario.seed, total, options.camera.width, options.camera.height, output);
+    spdlog::info("rendering scenario '{}' (seed {}, {}): {} frames at {}x{} to {}", options.scenario.name,
+                 options.scenario.seed, simulator.summary().source_name(), total, options.camera.width, options.camera.height, output);
     const auto start = Clock::now();
     auto last_report = start;
     int done = 0;

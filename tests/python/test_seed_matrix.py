@@ -111,6 +111,31 @@ class RocTest(unittest.TestCase):
         self.assertEqual(e["rotation_max_deg"], 11.0)  # the can's 40 deg about its axis and the uncompared one left out
         self.assertEqual(self.module.object_errors([])["rotation_worst_median_deg"], 0.0)
 
+    def test_procedural_report_groups_runs_by_motion_mover_and_shape_and_judges_the_targets(self):
+        def run(seed, motion, seg, objects):
+            return {"seed": seed, "segmentation": seg,
+                    "scene": {"motion": motion, "mover": "none",
+                              "objects": [{"id": i + 1, "shape": o[0], "moved": i == 0} for i, o in enumerate(objects)]},
+                    "per_object": [{"id": i + 1, "estimated": o[4], "rot_median": o[1], "rot_max": o[2],
+                                    "trans_median": o[3]} for i, o in enumerate(objects)]}
+        good_box, bad_can = ("box", 0.5, 3.0, 1.0, True), ("can", 5.0, 40.0, 1.0, True)
+        lost_mug = ("mug", 0.1, 0.2, 0.1, False)
+        rows = [run(1, "spin", 0.995, [bad_can, good_box]), run(2, "slide", 0.999, [good_box]),
+                run(3, "slide", 0.98, [good_box, lost_mug])]
+        measures = self.module.run_measures(rows[0])
+        self.assertEqual(measures, {"segmentation": True, "rotation": False, "translation": True, "no_frame_over": False})
+        self.assertTrue(self.module.run_measures(rows[0], {2})["rotation"])  # the box alone
+        self.assertFalse(self.module.run_measures(rows[2])["translation"])  # a lost object fails every pose measure
+        lines = self.module.procedural_report(rows)
+        self.assertIn("| spin | 1 | 100 % | 0 % | 100 % | 0 % |", lines)
+        self.assertIn("| slide | 2 | 50 % | 50 % | 50 % | 50 % |", lines)
+        self.assertIn("| tumble | 0 | 0 % | 0 % | 0 % | 0 % |", lines)  # every motion class listed
+        self.assertIn("| box | 3 | 67 % | 100 % | 100 % | 100 % |", lines)
+        self.assertIn("| can | 1 | 100 % | 0 % | 100 % | 0 % |", lines)
+        self.assertTrue(any(line.startswith("- every motion class listed: FAIL") for line in lines))
+        self.assertEqual(lines[-1], "targets: FAIL (0 of 5 met)")
+        self.assertTrue(any("3 development seeds" in line for line in lines))
+
     def test_confidence_pairs_join_poses_and_errors_with_the_threshold_given(self):
         with tempfile.TemporaryDirectory() as tmp:
             run = Path(tmp)

@@ -179,8 +179,29 @@ bool pattern_odd(Pattern pattern, float u, float v, float half_period) {
       return (cu & 1) != 0;
     case Pattern::checker:
       return ((cu + static_cast<long>(std::floor(v / half_period))) & 1) != 0;
+    case Pattern::label:
+      return false;  // label_albedo
   }
   return false;
+}
+
+// Pattern::label's albedo at surface coordinates (u, v) of face (scene.hpp); half: the primitive's
+// half size.
+Rgb8 label_albedo(const Primitive& prim, std::uint8_t face, float u, float v, const Eigen::Vector3f& half) {
+  const bool side = prim.kind == PrimitiveKind::box ? face < 4 : face == 0;
+  if (!side || v < 0.4f * half.z() || v > 1.6f * half.z()) return prim.face_colors[face];
+  if (prim.kind == PrimitiveKind::box) {
+    const float width = 2.0f * (face < 2 ? half.y() : half.x());
+    if (u < 0.1f * width || u > 0.9f * width) return prim.face_colors[face];
+  } else if (u > 0.65f * 2.0f * 3.14159265f * half.x()) {
+    return prim.face_colors[face];
+  }
+  if (!(prim.pattern_period_m > 0.0f)) return prim.pattern_color;
+  const float cell = 0.5f * prim.pattern_period_m;
+  const auto cu = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(u / cell)));
+  const auto cv = static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / cell)));
+  const bool printed = (mix64(cu * 0x9e3779b97f4a7c15ULL ^ (cv + 0x632be59bd9b4e019ULL) ^ face) & 3U) == 0U;
+  return printed ? prim.print_color : prim.pattern_color;
 }
 
 // Albedo and local normal of a primitive at local point p on face.
@@ -203,6 +224,7 @@ Rgb8 primitive_albedo(const Primitive& prim, const Eigen::Vector3f& p, std::uint
     u = p.x() + half.x();
     v = p.y() + half.y();
   }
+  if (prim.pattern == Pattern::label) return label_albedo(prim, face, u, v, half);
   const bool odd = prim.pattern_period_m > 0.0f && pattern_odd(prim.pattern, u, v, 0.5f * prim.pattern_period_m);
   return odd ? prim.pattern_color : prim.face_colors[face];
 }

@@ -20,13 +20,6 @@ namespace {
 
 constexpr float kPi = 3.14159265f;
 
-// Distinct, saturated face colours (none close to the table's wood or to skin).
-constexpr Rgb8 kRed{200, 30, 35}, kGreen{35, 160, 60}, kBlue{35, 70, 200}, kYellow{235, 205, 35},
-    kMagenta{190, 40, 165}, kCyan{30, 175, 195}, kOrange{240, 115, 20}, kPurple{105, 50, 165},
-    kWhite{235, 235, 230}, kBlack{35, 35, 40}, kLime{150, 215, 45}, kPink{240, 140, 180}, kGrey{140, 140, 150};
-constexpr std::array<Rgb8, 13> kPalette{kRed,   kGreen, kBlue,  kYellow, kMagenta, kCyan, kOrange,
-                                        kPurple, kWhite, kBlack, kLime,   kPink,    kGrey};
-
 Iso at(float x, float y, float z, float yaw = 0.0f) {
   Iso t = Iso::Identity();
   t.linear() = Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()).toRotationMatrix();
@@ -220,18 +213,6 @@ Script static_scenario() {
              at(0.20f, 0.20f, 0.03f, -15.0f * kPi / 180.0f));
   return b.finish(10.0);
 }
-
-// Uniform draws by own transforms of the generator's bits (identical on every platform).
-class Draw {
- public:
-  explicit Draw(std::uint64_t seed) : gen_(seed) {}
-  double operator()(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(gen_() >> 11) * 0x1.0p-53; }
-  float f(double lo, double hi) { return static_cast<float>((*this)(lo, hi)); }
-  int index(int n) { return static_cast<int>(gen_() % static_cast<std::uint64_t>(n)); }
-
- private:
-  std::mt19937_64 gen_;
-};
 
 BodyInfo random_object(Draw& draw, int id, float scale) {
   std::array<Rgb8, kPalette.size()> colours = kPalette;
@@ -572,11 +553,9 @@ Script cross_scenario(const ScenarioOptions& o) {
 
 }  // namespace
 
-World make_world() {
+World make_world(float pitch, float distance, const Eigen::Vector3f& target) {
   World world;
-  // Camera 1 m from the look-at point on the table, 45 degrees down; x right, y down, z forward.
-  const Eigen::Vector3f target(0.0f, 0.05f, 0.0f);
-  const float pitch = kPi / 4.0f, distance = 1.0f;
+  // Camera `distance` from the look-at point on the table, `pitch` down; x right, y down, z forward.
   const Eigen::Vector3f position = target + distance * Eigen::Vector3f(0.0f, -std::cos(pitch), std::sin(pitch));
   const Eigen::Vector3f z = (target - position).normalized(), x = Eigen::Vector3f::UnitX(), y = z.cross(x);
   Eigen::Matrix3f camera_to_world;
@@ -653,8 +632,10 @@ Script build_scenario(const ScenarioOptions& options, int attempt) {
   if (options.name == "tumble") return tumble_scenario(options);
   if (options.name == "slide") return slide_scenario(options);
   if (options.name == "cross") return cross_scenario(options);
+  if (options.name == "procedural") return procedural_scenario(options, attempt);
   throw std::invalid_argument(
-      "ScenarioOptions.name must be one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross");
+      "ScenarioOptions.name must be one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross, "
+      "procedural");
 }
 
 }  // namespace mfot::sim::detail

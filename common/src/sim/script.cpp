@@ -225,11 +225,25 @@ Iso side_grasp(const BodyInfo& object, const Iso& object_pose, float side) {
   return object_pose * local;
 }
 
-float half_height(const BodyInfo& object) { return 0.5f * object.primitives.front().size.z(); }
+float half_height(const BodyInfo& object) {
+  float out = 0.0f;
+  for (const Primitive& p : object.primitives) out = std::max(out, std::abs(p.pose.translation.z()) + 0.5f * p.size.z());
+  return out;
+}
 
 float footprint_radius(const BodyInfo& object) {
-  const Primitive& p = object.primitives.front();
-  return p.kind == PrimitiveKind::box ? 0.5f * std::hypot(p.size.x(), p.size.y()) : 0.5f * p.size.x();
+  float out = 0.0f;
+  for (const Primitive& p : object.primitives) {
+    const float own = p.kind == PrimitiveKind::box ? 0.5f * std::hypot(p.size.x(), p.size.y()) : 0.5f * p.size.x();
+    out = std::max(out, p.pose.translation.head<2>().norm() + own);
+  }
+  return out;
+}
+
+Eigen::Vector3f half_extents(const BodyInfo& object) {
+  Eigen::Vector3f out = Eigen::Vector3f::Zero();
+  for (const Primitive& p : object.primitives) out = out.cwiseMax(p.pose.translation.cwiseAbs() + 0.5f * p.size);
+  return out;
 }
 
 Iso top_grasp(const BodyInfo& object, const Iso& object_pose, float yaw) {

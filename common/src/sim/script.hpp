@@ -14,7 +14,10 @@
 
 #include <Eigen/Geometry>
 
+#include <array>
 #include <limits>
+#include <optional>
+#include <random>
 #include <vector>
 
 namespace mfot::sim::detail {
@@ -53,10 +56,38 @@ struct BodyScript {
   std::vector<Attachment> attachments;   // disjoint intervals
 };
 
+// The fixed surroundings: camera placement, table, floor and wall (plane poses: plane -> world).
+struct World {
+  Iso world_to_camera = Iso::Identity();
+  std::vector<Plane> planes;
+  Eigen::Vector3f light_direction = Eigen::Vector3f::UnitZ();  // towards the light, world frame
+};
+
 struct Script {
   std::vector<BodyScript> bodies;
   double duration_s = 0.0;
+  std::optional<World> world;  // the scenario's own surroundings; none: make_world()'s
+  SceneSummary summary;        // scenario and seed filled in by the Simulator
 };
+
+// Uniform draws by own transforms of the generator's bits (identical on every platform).
+class Draw {
+ public:
+  explicit Draw(std::uint64_t seed) : gen_(seed) {}
+  double operator()(double lo, double hi) { return lo + (hi - lo) * static_cast<double>(gen_() >> 11) * 0x1.0p-53; }
+  float f(double lo, double hi) { return static_cast<float>((*this)(lo, hi)); }
+  int index(int n) { return static_cast<int>(gen_() % static_cast<std::uint64_t>(n)); }
+
+ private:
+  std::mt19937_64 gen_;
+};
+
+// Distinct, saturated face colours (none close to the table's wood or to skin).
+constexpr Rgb8 kRed{200, 30, 35}, kGreen{35, 160, 60}, kBlue{35, 70, 200}, kYellow{235, 205, 35},
+    kMagenta{190, 40, 165}, kCyan{30, 175, 195}, kOrange{240, 115, 20}, kPurple{105, 50, 165},
+    kWhite{235, 235, 230}, kBlack{35, 35, 40}, kLime{150, 215, 45}, kPink{240, 140, 180}, kGrey{140, 140, 150};
+constexpr std::array<Rgb8, 13> kPalette{kRed,   kGreen, kBlue,  kYellow, kMagenta, kCyan, kOrange,
+                                        kPurple, kWhite, kBlack, kLime,   kPink,    kGrey};
 
 // World pose of body b at time t.
 Iso pose_at(const Script& script, int b, double t);
@@ -74,6 +105,7 @@ class ScriptBuilder {
  public:
   int add_body(BodyInfo info, const Iso& world_pose);
   const Iso& pose(int body) const { return current_[body]; }
+  const BodyInfo& info(int body) const { return script_.bodies[body].info; }
   double now() const { return now_; }
 
   // Moves each (body, target) of one phase; duration is at least min_duration_s and long enough
@@ -128,22 +160,27 @@ Iso top_grasp(const BodyInfo& object, const Iso& object_pose, float yaw);
 // far face's edge. Use with make_hand(id, {0, side, 0}) so the arm rises.
 Iso side_grasp(const BodyInfo& object, const Iso& object_pose, float side);
 
-// Half height of a body (objects: primitive extent along local z).
+// Half height of a body: the largest extent of its primitives along local z from the body origin
+// (a single primitive centred at the origin: half its height).
 float half_height(const BodyInfo& object);
-// Radius of the body's footprint circle (table plane) when upright.
+// Radius of the body's footprint circle about its origin (table plane) when upright.
 float footprint_radius(const BodyInfo& object);
+// Half extents of the body-frame axis-aligned box around all its primitives, which must be
+// centred on the origin (objects; their primitives are axis-aligned in the body frame).
+Eigen::Vector3f half_extents(const BodyInfo& object);
 
 // ---- scenarios ---------------------------------------------------------------------------
-// The fixed surroundings: camera placement, table, floor and wall (plane poses: plane -> world).
-struct World {
-  Iso world_to_camera = Iso::Identity();
-  std::vector<Plane> planes;
-  Eigen::Vector3f light_direction = Eigen::Vector3f::UnitZ();  // towards the light, world frame
-};
-World make_world();
+// The table, floor, wall and light, with the camera `distance` (metres) from the look-at point
+// `target` on the table top and `pitch` (radians) below the horizontal, looking along +y. The
+// defaults are the scripted scenarios' camera.
+World make_world(float pitch = 3.14159265f / 4.0f, float distance = 1.0f,
+                 const Eigen::Vector3f& target = Eigen::Vector3f(0.0f, 0.05f, 0.0f));
 
 // The script of options.name. attempt varies the random scenario's layout (the simulator retries
 // layouts whose objects are hidden at frame 0); the scripted scenarios ignore it.
 Script build_scenario(const ScenarioOptions& options, int attempt);
+
+// The seeded procedural scene (procedural.cpp); attempt varies it like random's.
+Script procedural_scenario(const ScenarioOptions& options, int attempt);
 
 }  // namespace mfot::sim::detail

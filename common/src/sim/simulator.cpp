@@ -4,6 +4,7 @@
 #include "script.hpp"
 
 #include <algorithm>
+#include <sstream>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -22,14 +23,46 @@ constexpr int kLayoutAttempts = 32;
 
 }  // namespace
 
+std::vector<std::string> procedural_motion_names() { return {"slide", "push", "spin", "tilt", "stack", "tumble"}; }
+
+std::string SceneSummary::source_name() const {
+  if (motion.empty()) return "sim:" + scenario;
+  std::string moved;
+  for (const Object& o : objects) {
+    if (o.moved) moved += (moved.empty() ? "" : "+") + o.shape;
+  }
+  return "sim:" + scenario + ":" + std::to_string(seed) + ":" + motion + ":" + moved;
+}
+
+std::string SceneSummary::yaml() const {
+  std::ostringstream out;
+  out << "scenario: " << scenario << "\nseed: " << seed << "\n";
+  if (motion.empty()) return out.str();
+  out << "motion: " << motion << "\nmover: " << mover << "\n";
+  out << "camera_height_m: " << camera_height_m << "\ncamera_pitch_deg: " << camera_pitch_rad * 180.0f / 3.14159265f
+      << "\n";
+  if (motion == "spin" || motion == "tumble") {
+    out << "spin_axis: [" << spin_axis.x() << ", " << spin_axis.y() << ", " << spin_axis.z() << "]\n";
+    out << "spin_angle_rad: " << spin_angle_rad << "\n";
+    if (motion == "spin") out << "spin_on_table: " << (spin_on_table ? "true" : "false") << "\n";
+  }
+  if (stack_base_id > 0) out << "stack_base_id: " << stack_base_id << "\n";
+  out << "objects:\n";
+  for (const Object& o : objects) {
+    out << "  - {id: " << o.id << ", shape: " << o.shape << ", texture: " << o.texture
+        << ", moved: " << (o.moved ? "true" : "false") << "}\n";
+  }
+  return out.str();
+}
+
 std::vector<std::string> scenario_names() {
-  return {"stack", "contact", "rotate", "apart", "static", "random", "spin", "tumble", "slide", "cross"};
+  return {"stack", "contact", "rotate", "apart", "static", "random", "spin", "tumble", "slide", "cross", "procedural"};
 }
 
 void ScenarioOptions::validate() const {
   const auto names = scenario_names();
   require(std::find(names.begin(), names.end(), name) != names.end(), "ScenarioOptions.name",
-          "one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross");
+          "one of stack, contact, rotate, apart, static, random, spin, tumble, slide, cross, procedural");
   require(num_frames >= 0 && num_frames <= 1000000, "ScenarioOptions.num_frames", "in [0, 1000000]");
   require(num_objects >= 1 && num_objects <= 16, "ScenarioOptions.num_objects", "in [1, 16]");
   require(speed > 0.0f && speed <= 0.2f, "ScenarioOptions.speed", "in (0, 0.2] m/s");
@@ -85,6 +118,9 @@ struct Simulator::Impl {
 
   void load(int attempt) {
     script = detail::build_scenario(options.scenario, attempt);
+    world = script.world ? *script.world : detail::make_world();
+    script.summary.scenario = options.scenario.name;
+    script.summary.seed = options.scenario.seed;
     bodies.clear();
     for (const detail::BodyScript& body : script.bodies) bodies.push_back(body.info);
   }
@@ -93,9 +129,8 @@ struct Simulator::Impl {
 Simulator::Simulator(const SimulatorOptions& options) : impl_(std::make_unique<Impl>()) {
   options.validate();
   impl_->options = options;
-  impl_->world = detail::make_world();
   impl_->load(0);
-  if (options.scenario.name == "random") {
+  if (options.scenario.name == "random" || options.scenario.name == "procedural") {
     for (int attempt = 1; attempt < kLayoutAttempts && !impl_->all_objects_visible(); ++attempt) impl_->load(attempt);
   }
   impl_->num_frames = options.scenario.num_frames > 0
@@ -140,6 +175,8 @@ RenderedFrame Simulator::render(int index) const {
 const SimulatorOptions& Simulator::options() const { return impl_->options; }
 
 const std::vector<BodyInfo>& Simulator::bodies() const { return impl_->bodies; }
+
+const SceneSummary& Simulator::summary() const { return impl_->script.summary; }
 
 Pose Simulator::world_to_camera() const { return Pose::from_isometry(impl_->world.world_to_camera); }
 

@@ -38,13 +38,17 @@ class CaptureService {
       : lcm_(lcm),
         settings_(std::move(settings)),
         source_name_(source->name()),
+        scene_yaml_(source->scene_yaml()),
         source_live_(source->live()),
         schedule_(settings_.speed),
         gate_(settings_.lockstep_window),
         status_(lcm, "capture", 0, source->kind()),
         reader_(std::move(source), settings_.start_frame, settings_.loop, settings_.encoding) {
     if (settings_.rate == RateMode::kLockstep) lcm_.subscribe(kPoses, &CaptureService::on_poses, this);
-    if (!settings_.groundtruth_dir.empty()) truth_writer_.emplace(settings_.groundtruth_dir);
+    if (!settings_.groundtruth_dir.empty()) {
+      truth_writer_.emplace(settings_.groundtruth_dir);
+      truth_writer_->write_scene(scene_yaml_);
+    }
   }
 
   int run() {
@@ -221,6 +225,7 @@ class CaptureService {
   lcm::LCM& lcm_;
   CaptureSettings settings_;
   std::string source_name_;
+  std::string scene_yaml_;  // the source's scene summary, for the ground-truth folder
   bool source_live_;
   RealtimeSchedule schedule_;
   LockstepGate gate_;

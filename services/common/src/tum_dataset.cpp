@@ -310,6 +310,14 @@ GroundTruthWriter::GroundTruthWriter(std::string folder) : folder_(std::move(fol
 
 GroundTruthWriter::~GroundTruthWriter() { close_file(poses_); }
 
+void GroundTruthWriter::write_scene(const std::string& yaml) {
+  if (yaml.empty()) return;
+  const std::string path = (fs::path(folder_) / "scene.yaml").string();
+  std::ofstream out(path);
+  out << yaml;
+  if (!out) throw std::runtime_error(path + ": cannot write");
+}
+
 void GroundTruthWriter::write(const GroundTruthFrame& truth) {
   if (truth.frame < 0) throw DatasetError("ground truth frame index must be >= 0");
   if (!truth.labels.pixels.empty() || truth.labels.width != 0) {

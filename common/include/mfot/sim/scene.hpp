@@ -95,6 +95,11 @@ enum class Pattern : std::uint8_t {
   solid,    // face colours only
   stripes,  // face colour alternating with pattern_color, stripes of pattern_period_m / 2
   checker,  // checkerboard of face colour and pattern_color, cells of pattern_period_m / 2
+  // A printed label on the side surfaces (cylinder side; box faces +-x, +-y): over the middle 60 %
+  // of the height and the first 65 % of the cylinder's circumference (the middle 80 % of a box
+  // face's width), pattern_color printed with blocks of print_color in cells of pattern_period_m / 2
+  // (a fixed hash of the cell picks them); face colour elsewhere. Turns about a cylinder's axis show.
+  label,
 };
 
 enum class PrimitiveKind : std::uint8_t { box, cylinder };
@@ -109,6 +114,7 @@ struct Primitive {
   std::array<Rgb8, 6> face_colors{};
   Pattern pattern = Pattern::solid;
   Rgb8 pattern_color{};
+  Rgb8 print_color{};  // Pattern::label's print
   float pattern_period_m = 0.04f;
   std::uint16_t label = 1;
 };

@@ -38,6 +38,9 @@ class FrameSource {
   virtual std::optional<SourceFrame> next() = 0;
   // Published in frame_t.source, e.g. "sim:stack", "tum:/data/fr1_desk".
   virtual std::string name() const = 0;
+  // What the scene is made of as a small YAML document (the simulator's SceneSummary), written
+  // beside the ground truth as scene.yaml; empty for sources that do not know.
+  virtual std::string scene_yaml() const { return {}; }
   // Status backend: "sim", "tum", "oni" or "openni2".
   virtual std::string kind() const = 0;
   // A live camera paces itself; real-time pacing by timestamps does not apply.

@@ -16,7 +16,9 @@ class SimSource final : public FrameSource {
   explicit SimSource(const sim::SimulatorOptions& options);
 
   std::optional<SourceFrame> next() override;
-  std::string name() const override { return "sim:" + simulator_.options().scenario.name; }
+  // "sim:<scenario>"; a procedural scene adds its seed, motion class and moved shapes.
+  std::string name() const override { return simulator_.summary().source_name(); }
+  std::string scene_yaml() const override { return simulator_.summary().yaml(); }
   std::string kind() const override { return "sim"; }
   bool rewind() override;
   void seek(std::int64_t index) override;  // no rendering of the skipped frames

@@ -116,6 +116,8 @@ class GroundTruthWriter {
   ~GroundTruthWriter();
 
   void write(const GroundTruthFrame& truth);
+  // Writes scene.yaml (the scene's summary, SceneSummary::yaml()) into the folder; empty: nothing.
+  void write_scene(const std::string& yaml);
 
  private:
   std::string folder_;
@@ -162,6 +164,10 @@ class TumDatasetWriter {
   // Writes one frame (and its ground truth when given and enabled). Frames must come in
   // increasing capture time; intrinsics.txt is written from the first frame.
   void write(const Frame& frame, const GroundTruthFrame* truth = nullptr);
+  // groundtruth/scene.yaml (GroundTruthWriter::write_scene) when ground truth is enabled.
+  void write_scene(const std::string& yaml) {
+    if (truth_) truth_->write_scene(yaml);
+  }
 
   std::size_t frames_written() const { return frames_written_; }
   // Depth pixels that did not fit a 16-bit PNG at this depth scale and were written as 0.
