@@ -222,6 +222,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.smoothness_threshold = discovery.get<float>("smoothness_threshold", 0.f, 1.f);
   c.manager.discovery.extended_convexity = discovery.get<bool>("extended_convexity");
   c.manager.discovery.sanity_criterion = discovery.get<bool>("sanity_criterion");
+  c.manager.discovery.color_cut = discovery.get<float>("color_cut", 0.f, 200.f);
   c.manager.discovery.min_part_points = discovery.get<int>("min_part_points", 1, 100000);
   c.manager.discovery.confirm_frames = discovery.get<int>("confirm_frames", 0, 1000);
   c.manager.discovery.confirm_votes = discovery.get<int>("confirm_votes", 1, 1000);
