@@ -18,7 +18,7 @@
 //      was sampled at, and holds back a box that starts to turn from there (README "Measured":
 //      "A voxel grid that moves every frame");
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
-//      within size limits, numbered by their first voxel (EuclideanClusterer's result, computed
+//      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by their first voxel (EuclideanClusterer's result, computed
 //      by a grid union-find, about 5x faster on 5 mm voxels);
 //   6. table prism (as PCL's ExtractPolygonalPrismData, own code because it runs per frame on the
 //      core's types): the convex hull of the plane's inliers (an even-stride sample; their largest
@@ -209,8 +209,7 @@ struct PreprocessorOptions {
 
   bool cluster = true;
   float cluster_tolerance = 0.015f;  // metres, in (0, 1]
-  int cluster_min_size = 30;         // voxels, in [1, cluster_max_size]
-  int cluster_max_size = 100000;     // voxels; larger clusters are rejected (-1)
+  int cluster_min_size = 30;         // voxels, >= 1: smaller clusters are rejected (-1); none is too large
 
   int threads = 1;                   // threads of the per-frame work, the caller included, in [1, 64]
 

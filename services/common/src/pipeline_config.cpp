@@ -74,13 +74,12 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.cluster = s.get<bool>("cluster");
   o.cluster_tolerance = s.get<float>("cluster_tolerance", 1e-4f, 1.f);
   o.cluster_min_size = s.get<int>("cluster_min_size", 1, 10000000);
-  o.cluster_max_size = s.get<int>("cluster_max_size", 1, 10000000);
   const int threads = s.get<int>("threads", 0, 64);
   o.threads = threads > 0 ? threads : auto_preprocess_threads();
   config.queue_frames = s.get<int>("queue_frames", 1, 64);
   s.finish();
   try {
-    o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
+    o.validate();  // cross-field rules: crop_min < crop_max
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("preprocess: ") + e.what());
   }
