@@ -7,7 +7,10 @@
 //   2. LCCP over the supervoxel adjacency graph: neighbours join when their connection is convex,
 //      or concave by less than concavity_tolerance_deg, with the smoothness, k-factor and sanity
 //      checks as configured;
-//   3. every point takes its LCCP segment (points in no supervoxel: none);
+//   3. every point takes its LCCP segment (points in no supervoxel: none); with color_cut, the segments
+//      are grown again over LCCP's valid connections between supervoxels whose mean colours (CIELab
+//      a*b* at one lightness) lie within color_cut: touching objects whose faces are flush or whose
+//      caps are level, so that a convex or flat path joins them, come apart by colour;
 //   4. segments of at least min_part_points are parts; the points of the others (and of none) join
 //      the part of their nearest point in a part, so tiny pieces never become objects;
 //   5. parts are numbered by their first point. Fewer than two parts: the cluster is one object.
@@ -20,6 +23,7 @@
 #include <pcl/segmentation/lccp_segmentation.h>
 #include <pcl/segmentation/supervoxel_clustering.h>
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <unordered_map>
@@ -28,6 +32,24 @@ namespace mfot {
 namespace {
 
 using PointT = pcl::PointXYZRGBA;
+
+// CIELab a*, b* of an sRGB colour (D65), brought to lightness 50: the hue and saturation without the
+// shading that darkens one object's faces unequally (a*, b* and L* + 16 all scale with the cube root of
+// the light). Below L* 20 the colour counts as of L* 20, so the noise of dark colours is not amplified.
+Eigen::Vector2f chroma(const PointT& p) {
+  const auto linear = [](std::uint8_t c) {
+    const float v = static_cast<float>(c) / 255.f;
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+  };
+  const float r = linear(p.r), g = linear(p.g), b = linear(p.b);
+  const float x = (0.4124f * r + 0.3576f * g + 0.1805f * b) / 0.95047f;
+  const float y = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+  const float z = (0.0193f * r + 0.1192f * g + 0.9505f * b) / 1.08883f;
+  const auto f = [](float t) { return t > 0.008856f ? std::cbrt(t) : 7.787f * t + 16.f / 116.f; };
+  const float lightness = 116.f * f(y) - 16.f;
+  const float scale = 66.f / (std::max(lightness, 20.f) + 16.f);
+  return {scale * 500.f * (f(x) - f(y)), scale * 200.f * (f(y) - f(z))};
+}
 
 class LccpDiscovery final : public ObjectDiscovery {
  public:
@@ -78,7 +100,11 @@ class LccpDiscovery final : public ObjectDiscovery {
 
     // 3. a segment per point (getLabeledCloud keeps the input's order; 0 = in no supervoxel)
     const pcl::PointCloud<pcl::PointXYZL>::Ptr labeled = supervoxels.getLabeledCloud();
-    lccp.relabelCloud(*labeled);
+    if (options_.color_cut > 0.f) {
+      join_by_convexity_and_color(lccp, clusters, *labeled);
+    } else {
+      lccp.relabelCloud(*labeled);
+    }
     std::unordered_map<std::uint32_t, std::size_t> sizes;
     for (const auto& p : labeled->points) {
       if (p.label != 0) ++sizes[p.label];
@@ -120,6 +146,38 @@ class LccpDiscovery final : public ObjectDiscovery {
   }
 
  private:
+  // LCCP's region growing again, over the connections LCCP found valid (convex, or concave within the
+  // tolerance) whose supervoxels' mean colours lie within color_cut of each other (CIELab a*b*): the label of
+  // every point becomes its component's lowest supervoxel label.
+  void join_by_convexity_and_color(const pcl::LCCPSegmentation<PointT>& lccp,
+                                   const std::map<std::uint32_t, pcl::Supervoxel<PointT>::Ptr>& clusters,
+                                   pcl::PointCloud<pcl::PointXYZL>& labeled) const {
+    typename pcl::LCCPSegmentation<PointT>::SupervoxelAdjacencyList graph;
+    lccp.getSVAdjacencyList(graph);
+    std::unordered_map<std::uint32_t, std::uint32_t> parent;
+    const auto find = [&](std::uint32_t a) {
+      while (parent.at(a) != a) a = parent[a] = parent.at(parent[a]);
+      return a;
+    };
+    std::unordered_map<std::uint32_t, Eigen::Vector2f> ab;
+    for (const auto& [label, supervoxel] : clusters) {
+      parent[label] = label;
+      ab[label] = chroma(supervoxel->centroid_);
+    }
+    const auto [first, last] = boost::edges(graph);
+    for (auto e = first; e != last; ++e) {
+      if (!graph[*e].is_valid) continue;
+      const std::uint32_t a = graph[boost::source(*e, graph)], b = graph[boost::target(*e, graph)];
+      if (!parent.contains(a) || !parent.contains(b)) continue;
+      if ((ab[a] - ab[b]).norm() > options_.color_cut) continue;
+      const std::uint32_t ra = find(a), rb = find(b);
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    for (auto& p : labeled.points) {
+      if (p.label != 0 && parent.contains(p.label)) p.label = find(p.label);
+    }
+  }
+
   DiscoveryOptions options_;
 };
 

@@ -27,10 +27,6 @@ void EuclideanClusterOptions::validate() const {
     throw std::invalid_argument("EuclideanClusterOptions.tolerance must be in (0, 1] metres, got " + std::to_string(tolerance));
   }
   if (min_cluster_size < 1) throw std::invalid_argument("EuclideanClusterOptions.min_cluster_size must be >= 1");
-  if (max_cluster_size < min_cluster_size) {
-    throw std::invalid_argument("EuclideanClusterOptions.max_cluster_size must be >= min_cluster_size (" +
-                                std::to_string(min_cluster_size) + "), got " + std::to_string(max_cluster_size));
-  }
 }
 
 EuclideanClusterer::EuclideanClusterer(const EuclideanClusterOptions& options)
@@ -60,7 +56,7 @@ void EuclideanClusterer::cluster(std::span<const Eigen::Vector3f> points, Cluste
         frontier_.push_back(n);
       }
     }
-    if (component_.size() < options_.min_cluster_size || component_.size() > options_.max_cluster_size) continue;
+    if (component_.size() < options_.min_cluster_size) continue;
     std::sort(component_.begin(), component_.end());
     const auto k = static_cast<std::int32_t>(out.size());
     for (const int i : component_) out.cluster_of_point[static_cast<std::size_t>(i)] = k;

@@ -27,6 +27,7 @@ void DiscoveryOptions::validate() const {
     throw std::invalid_argument("DiscoveryOptions.concavity_tolerance_deg must be in (0, 90], got " +
                                 std::to_string(concavity_tolerance_deg));
   }
+  require_range("color_cut", color_cut, 0.f, 200.f);
   require_range("smoothness_threshold", smoothness_threshold, 0.f, 1.f);
   if (min_part_points < 1) {
     throw std::invalid_argument("DiscoveryOptions.min_part_points must be >= 1, got " + std::to_string(min_part_points));

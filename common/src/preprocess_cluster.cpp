@@ -1,6 +1,6 @@
 // Step 5 of Preprocessor: Euclidean clustering of the voxels. Same result as EuclideanClusterer
-// (connected components of "distance <= tolerance", numbered by their lowest point index, size
-// limits), computed for speed as a union-find over a grid of tolerance-sized cells: each pair of
+// (connected components of "distance <= tolerance", numbered by their lowest point index, at
+// least cluster_min_size points), computed for speed as a union-find over a grid of tolerance-sized cells: each pair of
 // points in the same or adjacent cells is tested once (13 forward neighbour cells), on
 // cell-contiguous copies of the positions, instead of one sorted radius search per point.
 // With threads, the cells' neighbour tests run in parallel on a concurrent union-find (links
@@ -199,13 +199,12 @@ void Preprocessor::cluster_voxels() {
     ++component_size_[static_cast<std::size_t>(root)];
   }
   const auto min_size = options_.cluster_min_size;
-  const auto max_size = options_.cluster_max_size;
   for (std::size_t i = 0; i < n; ++i) {
     const auto root = static_cast<std::size_t>(union_parent_[i]);  // root <= i: labelled already
     if (root == i) {
       const int size = component_size_[i];
       // component_size_ of a root turns into its label (or -1) once the root is reached.
-      component_size_[i] = size >= min_size && size <= max_size ? scene_.num_clusters++ : -1;
+      component_size_[i] = size >= min_size ? scene_.num_clusters++ : -1;
     }
     scene_.cluster[i] = component_size_[root];
   }

@@ -65,9 +65,7 @@ void PreprocessorOptions::validate() const {
   require(finite_in(plane_keep_ratio, 0.f, 1.f), "plane_keep_ratio", "in (0, 1]");
   require(finite_in(voxel_size, 0.f, 1.f), "voxel_size", "in (0, 1] metres");
   require(finite_in(cluster_tolerance, 0.f, 1.f), "cluster_tolerance", "in (0, 1] metres");
-  require(cluster_max_size >= 1, "cluster_max_size", ">= 1");
-  require(cluster_min_size >= 1 && cluster_min_size <= cluster_max_size, "cluster_min_size",
-          "in [1, cluster_max_size]");
+  require(cluster_min_size >= 1, "cluster_min_size", ">= 1");
   require(threads >= 1 && threads <= 64, "threads", "in [1, 64]");
 }
 

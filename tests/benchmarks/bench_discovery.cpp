@@ -2,6 +2,8 @@
 // as one scene, through mfot's preprocessing and first-frame objects (merger.discovery), scored per
 // measured pixel against the file's labels (match_segments: found, WOv, merged, split, spurious),
 // and PCL's LCCP with its example's settings after a RANSAC table fit on the same points.
+// Points left in no object: of the ground-truth object pixels above the table (those mfot's
+// preprocessing keeps a voxel of), how many no object holds; the same pixels for both methods.
 // One JSON object per scene and method on stdout; scripts/bench-mosd prints the tables.
 //
 //   mfot_bench_discovery FOLDER [--config FILE] [--background-label-max 9] [--no-pcl]
@@ -30,12 +32,23 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-void print(const std::string& scene, const char* method, const mfot::SegmentMatch& m, double ms, double table_ms) {
+// above_table: per measured pixel, whether mfot's preprocessing kept a voxel of it.
+void print(const std::string& scene, const char* method, const std::vector<std::int32_t>& truth,
+           const std::vector<std::int32_t>& predicted, const std::vector<std::uint8_t>& above_table, double ms,
+           double table_ms) {
+  const mfot::SegmentMatch m = mfot::match_segments(truth, predicted);
+  std::size_t object_points = 0, unassigned = 0;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    if (truth[k] == 0 || !above_table[k]) continue;
+    ++object_points;
+    if (predicted[k] == 0) ++unassigned;
+  }
   std::printf(
       "{\"scene\": \"%s\", \"method\": \"%s\", \"segments\": %zu, \"objects\": %zu, \"found\": %zu, \"wov\": %.5f, "
-      "\"merged\": %zu, \"split\": %zu, \"spurious\": %zu, \"ms\": %.3f, \"table_ms\": %.3f}\n",
-      scene.c_str(), method, m.segments, m.objects, m.found, m.weighted_overlap, m.merged, m.split, m.spurious, ms,
-      table_ms);
+      "\"merged\": %zu, \"split\": %zu, \"spurious\": %zu, \"object_points\": %zu, \"unassigned\": %zu, "
+      "\"ms\": %.3f, \"table_ms\": %.3f}\n",
+      scene.c_str(), method, m.segments, m.objects, m.found, m.weighted_overlap, m.merged, m.split, m.spurious,
+      object_points, unassigned, ms, table_ms);
   std::fflush(stdout);
 }
 
@@ -130,11 +143,13 @@ int main(int argc, char** argv) {
       const double objects_ms = ms_since(t_objects);
       const auto voxel_of_pixel = preprocessor.pixel_voxel_index();
       predicted.clear();
+      std::vector<std::uint8_t> above_table;
       for (const std::size_t i : measured) {
         const int voxel = voxel_of_pixel[i];
         predicted.push_back(voxel < 0 ? 0 : result.labels[static_cast<std::size_t>(voxel)]);
+        above_table.push_back(voxel >= 0 ? 1 : 0);
       }
-      print(scene, "mfot", mfot::match_segments(truth, predicted), objects_ms, table_ms);
+      print(scene, "mfot", truth, predicted, above_table, objects_ms, table_ms);
       if (!dump.empty()) {
         std::vector<std::int32_t> truth_image(pixels, 0), predicted_image(pixels, 0);
         for (std::size_t k = 0; k < measured.size(); ++k) {
@@ -148,7 +163,7 @@ int main(int argc, char** argv) {
       const auto reference = mfot::bench::pcl_lccp_segments(image.xyz, image.rgb);
       predicted.clear();
       for (const std::size_t i : measured) predicted.push_back(reference.labels[i]);
-      print(scene, "pcl-lccp", mfot::match_segments(truth, predicted), reference.segment_ms, reference.table_ms);
+      print(scene, "pcl-lccp", truth, predicted, above_table, reference.segment_ms, reference.table_ms);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "[bench-discovery] %s\n", e.what());

@@ -20,11 +20,10 @@ void add_blob(std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& origi
       for (int z = 0; z < g; ++z) points.push_back(origin + Eigen::Vector3f(x, y, z) * 0.005f);
 }
 
-EuclideanClusterOptions cluster_options(float tolerance, std::size_t min_size, std::size_t max_size) {
+EuclideanClusterOptions cluster_options(float tolerance, std::size_t min_size) {
   EuclideanClusterOptions o;
   o.tolerance = tolerance;
   o.min_cluster_size = min_size;
-  o.max_cluster_size = max_size;
   return o;
 }
 
@@ -48,12 +47,11 @@ std::vector<int> brute_components(const std::vector<Eigen::Vector3f>& points, fl
 }
 
 TEST(EuclideanClustering, RejectsInvalidOptions) {
-  EXPECT_THROW(EuclideanClusterer(cluster_options(0.f, 1, 10)), std::invalid_argument);
-  EXPECT_THROW(EuclideanClusterer(cluster_options(0.01f, 0, 10)), std::invalid_argument);
-  EXPECT_THROW(EuclideanClusterer(cluster_options(0.01f, 20, 10)), std::invalid_argument);
+  EXPECT_THROW(EuclideanClusterer(cluster_options(0.f, 1)), std::invalid_argument);
+  EXPECT_THROW(EuclideanClusterer(cluster_options(0.01f, 0)), std::invalid_argument);
 }
 
-TEST(EuclideanClustering, SeparatesBlobsAndDropsClustersOutOfBounds) {
+TEST(EuclideanClustering, SeparatesBlobsAndDropsClustersBelowTheMinimum) {
   std::vector<Eigen::Vector3f> points;
   add_blob(points, {0.f, 0.f, 0.8f}, 4);     // 64 points, indices 0..63
   add_blob(points, {0.1f, 0.f, 0.8f}, 5);    // 125 points, 64..188
@@ -61,21 +59,23 @@ TEST(EuclideanClustering, SeparatesBlobsAndDropsClustersOutOfBounds) {
   add_blob(points, {0.f, 0.1f, 0.8f}, 3);    // 27 points, 190..216
   points.push_back({0.02f, 0.f, 0.8f});      // 5 mm from the first blob's far corner row: joins it, 217
 
-  EuclideanClusterer clusterer(cluster_options(0.006f, 20, 100));
+  EuclideanClusterer clusterer(cluster_options(0.006f, 20));
   ClusterSet clusters;
   clusterer.cluster(points, clusters);
-  ASSERT_EQ(clusters.size(), 2u);  // the 125-point blob is too large, the single point too small
+  ASSERT_EQ(clusters.size(), 3u);  // the single point is too small; no blob is too large
   ASSERT_EQ(clusters.cluster(0).size(), 65u);
   EXPECT_EQ(clusters.cluster(0).front(), 0);
   EXPECT_EQ(clusters.cluster(0).back(), 217);
-  ASSERT_EQ(clusters.cluster(1).size(), 27u);
-  EXPECT_EQ(clusters.cluster(1).front(), 190);
-  EXPECT_EQ(clusters.cluster_of_point[100], -1);
+  ASSERT_EQ(clusters.cluster(1).size(), 125u);
+  EXPECT_EQ(clusters.cluster(1).front(), 64);
+  ASSERT_EQ(clusters.cluster(2).size(), 27u);
+  EXPECT_EQ(clusters.cluster(2).front(), 190);
+  EXPECT_EQ(clusters.cluster_of_point[100], 1);
   EXPECT_EQ(clusters.cluster_of_point[189], -1);
-  EXPECT_EQ(clusters.cluster_of_point[200], 1);
+  EXPECT_EQ(clusters.cluster_of_point[200], 2);
 
   // A tolerance below the lattice spacing shatters everything into dropped singletons.
-  EuclideanClusterer fine(cluster_options(0.004f, 2, 1000));
+  EuclideanClusterer fine(cluster_options(0.004f, 2));
   fine.cluster(points, clusters);
   EXPECT_EQ(clusters.size(), 0u);
 }
@@ -86,7 +86,7 @@ TEST(EuclideanClustering, MatchesBruteForceComponents) {
   for (auto& p : points) p = Eigen::Vector3f(uniform01(rng), uniform01(rng), uniform01(rng) * 0.05f) * 0.4f;
   const float tolerance = 0.012f;
   const auto roots = brute_components(points, tolerance);
-  EuclideanClusterer clusterer(cluster_options(tolerance, 1, points.size()));
+  EuclideanClusterer clusterer(cluster_options(tolerance, 1));
   ClusterSet clusters;
   clusterer.cluster(points, clusters);
   std::size_t covered = 0;
@@ -135,7 +135,7 @@ Frame make_frame(bool with_new, float new_x) {
     f.labels.resize(f.points.size(), 0);
     f.labels[f.labels.size() - 1] = 1;  // a few points assigned do not make it explained
   }
-  EuclideanClusterer(cluster_options(0.006f, 10, 1000)).cluster(f.points, f.clusters);
+  EuclideanClusterer(cluster_options(0.006f, 10)).cluster(f.points, f.clusters);
   return f;
 }
 

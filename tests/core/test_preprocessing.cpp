@@ -417,10 +417,9 @@ TEST(Preprocessor, ClustersMatchEuclideanClusterer) {
       PreprocessorOptions options;
       options.cluster_tolerance = tolerance;
       options.cluster_min_size = min_size;
-      options.cluster_max_size = 1200;
       Preprocessor preprocessor(options);
       const SceneCloud& cloud = preprocessor.process(frame.view());
-      EuclideanClusterer reference(EuclideanClusterOptions{tolerance, static_cast<std::size_t>(min_size), 1200});
+      EuclideanClusterer reference(EuclideanClusterOptions{tolerance, static_cast<std::size_t>(min_size)});
       ClusterSet expected;
       reference.cluster(cloud.positions, expected);
       ASSERT_EQ(cloud.num_clusters, static_cast<int>(expected.size())) << "tolerance " << tolerance;
@@ -463,8 +462,7 @@ TEST(PreprocessorOptions, InvalidValuesNameTheField) {
   o.cluster_tolerance = std::nanf("");
   expect_invalid_option(o, "cluster_tolerance");
   o = {};
-  o.cluster_min_size = 10;
-  o.cluster_max_size = 5;
+  o.cluster_min_size = 0;
   expect_invalid_option(o, "cluster_min_size");
   o = {};
   o.plane_fit.iterations = 0;

@@ -399,8 +399,10 @@ TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   // The shipped supervoxel size: 2 cm finds the step between touching front faces that 3 cm straddles
   // (LccpDiscoveryOnSensorViews).
   EXPECT_FLOAT_EQ(m.manager.discovery.seed_resolution, 0.02f);
+  // The shipped colour cut: a synthetic pile's touching objects come apart (PileDiscovery).
+  EXPECT_FLOAT_EQ(m.manager.discovery.color_cut, 35.f);
   EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n")).manager.discovery.confirm_join);
-  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2", "confirm_join: 3"}) {
+  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2", "confirm_join: 3", "color_cut: 201"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
   EXPECT_FLOAT_EQ(load_merger_config(with_defaults("merger:\n  new_object_held_margin: 0.05\n")).manager.held_birth_margin, 0.05f);

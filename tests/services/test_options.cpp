@@ -139,11 +139,10 @@ void load_with(const std::string& key, const std::string& value) {
   if (section == "capture") capture::load_capture_settings(config_section(root, "capture")).validate();
 }
 
-// Keys whose bound the core refuses in a range that another key's value sets ("must be in [1,
-// cluster_max_size]"): cluster_min_size <= cluster_max_size, final_iterations <= icp_iterations,
+// Keys whose bound the core refuses in a range that another key's value sets: final_iterations <= icp_iterations,
 // voxel_resolution <= seed_resolution, confirm_votes <= confirm_frames.
 const std::set<std::string> kCrossField = {
-    "preprocess.cluster_min_size",      "preprocess.cluster_max_size",     "tracker.icp_final_iterations",
+    "tracker.icp_final_iterations",
     "tracker.icp_iterations",           "merger.discovery.voxel_resolution", "merger.discovery.seed_resolution",
     "merger.discovery.confirm_votes",   "merger.discovery.confirm_frames"};
 

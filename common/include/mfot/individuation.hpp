@@ -18,8 +18,7 @@ namespace mfot {
 
 struct EuclideanClusterOptions {
   float tolerance = 0.010f;            // metres, (0, 1]: points closer than this are connected
-  std::size_t min_cluster_size = 30;   // >= 1: smaller clusters are dropped
-  std::size_t max_cluster_size = 100000;  // >= min_cluster_size: larger clusters are dropped
+  std::size_t min_cluster_size = 30;   // >= 1: smaller clusters are dropped (no size is too large)
   void validate() const;
 };
 

@@ -38,6 +38,10 @@ struct DiscoveryOptions {
   float smoothness_threshold = 0.1f;  // LCCP's smoothness check (step between supervoxels), [0, 1]; 0 = off
   bool extended_convexity = false;    // LCCP's k-factor 1: a convex edge needs a common neighbour that agrees
   bool sanity_criterion = true;       // LCCP's sanity check of singular (edge-on) connections
+  // Two supervoxels LCCP joins stay joined only while their mean colours' CIELab a*b* lie within this
+  // of each other: touching objects whose faces are flush (no concave edge between them) come apart
+  // by colour. [0, 200]; 0 = off (convexity alone).
+  float color_cut = 0.f;
   // Parts with fewer points than this are no objects: their points join the neighbouring larger
   // part they touch (a label on a can, a handle seen edge-on), >= 1.
   int min_part_points = 150;

@@ -75,13 +75,12 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.cluster = read_option<bool>(s, "cluster");
   o.cluster_tolerance = read_option<float>(s, "cluster_tolerance");
   o.cluster_min_size = read_option<int>(s, "cluster_min_size");
-  o.cluster_max_size = read_option<int>(s, "cluster_max_size");
   const int threads = read_option<int>(s, "threads");
   o.threads = threads > 0 ? threads : auto_preprocess_threads();
   config.queue_frames = read_option<int>(s, "queue_frames");
   s.finish();
   try {
-    o.validate();  // cross-field rules: crop_min < crop_max, cluster_min_size <= cluster_max_size
+    o.validate();  // cross-field rules: crop_min < crop_max
   } catch (const std::invalid_argument& e) {
     throw ConfigError(std::string("preprocess: ") + e.what());
   }
@@ -222,6 +221,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.smoothness_threshold = read_option<float>(discovery, "smoothness_threshold");
   c.manager.discovery.extended_convexity = read_option<bool>(discovery, "extended_convexity");
   c.manager.discovery.sanity_criterion = read_option<bool>(discovery, "sanity_criterion");
+  c.manager.discovery.color_cut = read_option<float>(discovery, "color_cut");
   c.manager.discovery.min_part_points = read_option<int>(discovery, "min_part_points");
   c.manager.discovery.confirm_frames = read_option<int>(discovery, "confirm_frames");
   c.manager.discovery.confirm_votes = read_option<int>(discovery, "confirm_votes");
