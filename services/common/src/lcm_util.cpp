@@ -68,6 +68,10 @@ std::string MalformedCounter::last() const {
 
 namespace {
 
+// Every top-level type carries envelope_t (56 bytes on the wire: group_id, sender, sequence, mac[32])
+// right after utime; the offsets below are those without it plus kEnvelopeBytes.
+constexpr std::size_t kEnvelopeBytes = 56;
+
 // A message being checked against the wire layout of type T (big-endian, 8-byte fingerprint
 // first, lcmtypes/*.lcm). Offsets below count the fields before each array count.
 class WireLayout {
@@ -112,14 +116,14 @@ bool fixed_count_fits(const lcm::ReceiveBuffer* rbuf, std::int64_t fingerprint, 
 // hash 8 | utime, frame_seq, capture_utime 24 | width, height 8 | fx, fy, cx, cy, voxel_size 20 |
 // voxel_origin 12 | plane 16 | num_points; per point x, y, z 12 + r, g, b 3 + u, v 4 + cluster 4.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
-  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 88, 23);
+  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 88 + kEnvelopeBytes, 23);
 }
 
 // hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,
 // orientation, velocity 104 | carried_by 4 | companion, companion_motion 52 | num_points; per point x, y, z 12 +
 // r, g, b 3.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
-  return fixed_count_fits(rbuf, object_model_t::getHash(), 204, 15);
+  return fixed_count_fits(rbuf, object_model_t::getHash(), 204 + kEnvelopeBytes, 15);
 }
 
 // hash 8 | utime 8 | worker_id 4 | instance 8 | host (int32 length incl. NUL, bytes) | object_id,
@@ -127,19 +131,19 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const heartbeat_t*) {
   const WireLayout wire(rbuf, heartbeat_t::getHash());
   std::int64_t host_length = 0;
-  if (!wire.ours() || !wire.int32_at(28, host_length)) return true;
-  return host_length >= 1 && wire.fits(32, host_length, 1);
+  if (!wire.ours() || !wire.int32_at(28 + kEnvelopeBytes, host_length)) return true;
+  return host_length >= 1 && wire.fits(32 + kEnvelopeBytes, host_length, 1);
 }
 
 // hash 8 | utime, frame_seq 16 | num_points; per point label 4.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const segmentation_t*) {
-  return fixed_count_fits(rbuf, segmentation_t::getHash(), 24, 4);
+  return fixed_count_fits(rbuf, segmentation_t::getHash(), 24 + kEnvelopeBytes, 4);
 }
 
 // hash 8 | utime, frame_seq, capture_utime 24 | num_objects; per object_pose_t id 4 + six
 // double vectors 160 + confidence 4 + stale 1.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*) {
-  return fixed_count_fits(rbuf, poses_t::getHash(), 32, 169);
+  return fixed_count_fits(rbuf, poses_t::getHash(), 32 + kEnvelopeBytes, 169);
 }
 
 // hash 8 | utime, capture_utime, seq 24 | source (int32 length incl. NUL, bytes) | width, height,
@@ -148,11 +152,11 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*) {
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*) {
   const WireLayout wire(rbuf, frame_t::getHash());
   std::int64_t source_length = 0;
-  if (!wire.ours() || !wire.int32_at(32, source_length)) return true;
+  if (!wire.ours() || !wire.int32_at(32 + kEnvelopeBytes, source_length)) return true;
   // The length counts the string's NUL, so it is >= 1; lcm-gen computes length - 1 in int, which
   // overflows for INT32_MIN (found by tests/fuzz/fuzz_frame_decoder.cpp).
   if (source_length < 1) return false;
-  const std::size_t depth_offset = 36 + static_cast<std::size_t>(source_length) + 25;
+  const std::size_t depth_offset = 36 + kEnvelopeBytes + static_cast<std::size_t>(source_length) + 25;
   std::int64_t depth_size = 0;
   if (!wire.int32_at(depth_offset, depth_size)) return true;
   if (!wire.fits(depth_offset + 4, depth_size, 1)) return false;
