@@ -1,5 +1,7 @@
 #include "mfot/service/lcm_util.hpp"
 
+#include "mfot/service/message_authenticator.hpp"
+
 #include "mfot/frame_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
@@ -67,8 +69,50 @@ std::string MalformedCounter::last() const {
 }
 
 namespace {
+std::shared_ptr<MessageAuthenticator> g_authenticator;
+std::mutex g_publish_mutex;
+std::mutex g_rejected_mutex;
+std::map<std::pair<std::string, Verdict>, std::int64_t> g_rejected;  // first of each logged
+}  // namespace
 
-// Every top-level type carries envelope_t (56 bytes on the wire: group_id, sender, sequence, mac[32])
+void install_message_authenticator(std::shared_ptr<MessageAuthenticator> authenticator) {
+  g_authenticator = std::move(authenticator);
+}
+
+MessageAuthenticator* message_authenticator() { return g_authenticator.get(); }
+
+int publish_encoded(lcm::LCM& lcm, const std::string& channel, std::vector<std::uint8_t> message) {
+  std::lock_guard lock(g_publish_mutex);
+  if (g_authenticator && !g_authenticator->stamp(message)) {
+    spdlog::error("not publishing {} bytes on {}: too short for an envelope", message.size(), channel);
+    return -1;
+  }
+  return lcm.publish(channel, message.data(), static_cast<unsigned>(message.size()));
+}
+
+bool message_is_authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, MalformedCounter& malformed) {
+  MessageAuthenticator* auth = g_authenticator.get();
+  if (auth == nullptr) return true;
+  const Verdict verdict =
+      auth->verify(channel_name, static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, now_utime());
+  if (verdict == Verdict::kAccepted) return true;
+  if (verdict == Verdict::kNoEnvelope) {
+    malformed.record(channel_name, "undecodable", "too short for a message (" + std::to_string(rbuf->data_size) + " bytes)");
+    return false;
+  }
+  std::lock_guard lock(g_rejected_mutex);
+  if (++g_rejected[{channel_name, verdict}] == 1) {
+    spdlog::warn("{} message on {} dropped ({}); further ones are only counted (service_status_t)",
+                 verdict_name(verdict), channel_name,
+                 verdict == Verdict::kForeign ? "another group's id" : verdict == Verdict::kForged
+                     ? "wrong MAC: not signed with this group's key" : "sequence not above the sender's last, or too old");
+  }
+  return false;
+}
+
+namespace {
+
+// Every top-level type carries envelope_t (56 bytes on the wire: group_id, sender, sequence, mac[4])
 // right after utime; the offsets below are those without it plus kEnvelopeBytes.
 constexpr std::size_t kEnvelopeBytes = 56;
 

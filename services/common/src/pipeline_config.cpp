@@ -145,6 +145,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.companion_turn_min_cosine = s.get<float>("companion_turn_min_cosine", -1.f, 1.f);
   c.step.companion_turn_max_kept = s.get<float>("companion_turn_max_kept", 0.f, 1.f);
   c.heartbeat_ms = s.get<int>("heartbeat_ms", 10, 10000);
+  c.merger_timeout_ms = s.get<int>("merger_timeout_ms", 100, 600000);
   c.scenes.max_scenes = s.get<std::size_t>("queue_scenes", 1, 64);
   c.scenes.model_wait =
       std::chrono::milliseconds(s.get<int>("model_wait_ms", 1, 600000));
