@@ -54,6 +54,21 @@ TEST(MessageAuthenticator, StampedMessageIsAcceptedAndDecodesWithItsEnvelope) {
   EXPECT_EQ(receiver.counts().forged + receiver.counts().foreign + receiver.counts().replayed, 0);
 }
 
+TEST(MessageAuthenticator, MacIsThePythonOne) {
+  // tests/python/test_mfot_auth.py stamps the same heartbeat with the same key, group and sender with
+  // scripts/mfot_auth.py (hmac, hashlib) and expects this MAC too.
+  MessageAuthenticator sender(5, 1001, key_of('k'));
+  Bytes message = sample_heartbeat();
+  ASSERT_TRUE(sender.stamp(message));
+  std::string hex;
+  for (std::size_t i = envelope::kMacOffset; i < envelope::kEnd; ++i) {
+    static const char* digits = "0123456789abcdef";
+    hex += digits[message[i] >> 4];
+    hex += digits[message[i] & 15];
+  }
+  EXPECT_EQ(hex, "eb9899a4c3f005d2800b19818742eb5bc11cf56265c7c3c80c3ccba57ecc8c04");
+}
+
 TEST(MessageAuthenticator, EveryAlteredByteIsForged) {
   MessageAuthenticator sender(5, 1001, key_of('k'));
   Bytes message = sample_heartbeat();
