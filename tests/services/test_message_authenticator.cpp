@@ -29,7 +29,7 @@ constexpr std::int64_t kNow = 1'700'000'000'000'000;
 std::vector<std::uint8_t> key_of(char fill) { return std::vector<std::uint8_t>(32, static_cast<std::uint8_t>(fill)); }
 
 Bytes sample_heartbeat() {
-  heartbeat_t hb;
+  heartbeat_t hb{};
   hb.utime = kNow;
   hb.worker_id = 3;
   hb.instance = 42;
@@ -151,7 +151,7 @@ TEST(MessageAuthenticator, WithoutKeyOnlyTheGroupIsChecked) {
 
 TEST(MessageAuthenticator, TheEnvelopeSitsAtOneOffsetInEveryType) {
   MessageAuthenticator sender(77, 1001, key_of('k'));
-  poses_t poses;
+  poses_t poses{};
   poses.utime = kNow;
   poses.frame_seq = 4;
   Bytes message = encode(poses);

@@ -317,7 +317,7 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
                      std::int64_t utime) {
   options.validate();
   frame.validate();
-  frame_t message;
+  frame_t message{};  // the envelope too: zero until publish_message stamps it
   message.utime = utime;
   message.capture_utime = frame.capture_utime;
   message.seq = seq;

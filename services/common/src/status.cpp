@@ -34,7 +34,7 @@ void StatusReporter::publish() {
   const auto now = Clock::now();
   const double elapsed = std::max(1e-3, std::chrono::duration<double>(now - last_report_).count());
   const std::vector<double> window(latencies_ms_.begin(), latencies_ms_.end());
-  service_status_t msg;
+  service_status_t msg{};
   msg.utime = now_utime();
   msg.service = service_;
   msg.instance = instance_;
