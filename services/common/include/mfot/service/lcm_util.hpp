@@ -38,8 +38,8 @@ inline constexpr const char* kStatus = "MFOT_STATUS";              // service_st
 }  // namespace channel
 
 // Ranges of received ids (issue 55), checked where messages arrive so that no value can overflow a
-// counter: object ids are 1..kMaxObjectId (the merger never allocates beyond it), worker ids
-// 0..kMaxWorkerId (mfot-tracker --worker-id's range).
+// counter: object ids received are 1..kMaxObjectId (a heartbeat or model naming another is dropped and
+// counted as malformed), worker ids 0..kMaxWorkerId (mfot-tracker --worker-id's range).
 inline constexpr std::int32_t kMaxObjectId = 1000000;
 inline constexpr std::int32_t kMaxWorkerId = 100000;
 
