@@ -12,6 +12,7 @@
 
 #include "mfot/capture/capture_service.hpp"
 #include "mfot/capture/capture_settings.hpp"
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/service_main.hpp"
@@ -70,7 +71,8 @@ int main(int argc, char** argv) {
   setup_logging("capture", 0);
   install_signal_handlers();
   try {
-    CaptureSettings settings = load_capture_settings(config_section(load_config_file(config_path), "capture"));
+    const YAML::Node root = load_config_file(config_path);
+    CaptureSettings settings = load_capture_settings(config_section(root, "capture"));
     const auto given = [](const CLI::Option* option) { return option->count() > 0; };
     if (given(o_source)) settings.source = cli.source;
     if (given(o_scenario)) settings.scenario = cli.scenario;
@@ -99,6 +101,7 @@ int main(int argc, char** argv) {
       if (settings.start_frame > 0) source->seek(settings.start_frame);
       return measure_encodings(*source, settings.encoding, measure);
     }
+    install_group_security(root);
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));

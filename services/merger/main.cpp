@@ -4,6 +4,7 @@
 // workers); LcmMergerLink publishes models, segmentation and the controller-facing poses and
 // writes the run folder.
 
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/merger_core.hpp"
@@ -73,7 +74,9 @@ int main(int argc, char** argv) {
   setup_logging("merger", 0);
   install_signal_handlers();
   return run_service_main([&] {
-    const MergerConfig config = load_merger_config(load_config_file(config_path));
+    const YAML::Node root = load_config_file(config_path);
+    const MergerConfig config = load_merger_config(root);
+    install_group_security(root);
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));

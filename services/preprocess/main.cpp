@@ -10,6 +10,7 @@
 #include "mfot/frame_t.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/pipeline_config.hpp"
@@ -66,6 +67,20 @@ class PreprocessService {
  private:
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     if (!decode_message(rbuf, chan, spare_, status_.malformed())) return;
+    // Boundary checks (issue 55): plausible sizes, and a sequence that grows within one capture
+    // process (a new process, e.g. a restarted capture, may start again from 0).
+    if (auto why = implausible_frame_sizes(spare_)) {
+      status_.malformed().record(chan, "invalid frame", *why);
+      return;
+    }
+    if (spare_.seq < 0 || (spare_.envelope.sender == last_sender_ && spare_.seq <= last_seq_)) {
+      status_.malformed().record(chan, "frame seq not increasing",
+                                 "seq " + std::to_string(spare_.seq) + " after " + std::to_string(last_seq_) +
+                                     " from the same capture");
+      return;
+    }
+    last_sender_ = spare_.envelope.sender;
+    last_seq_ = spare_.seq;
     pending_.push_back(std::move(spare_));
     if (pending_.size() > queue_frames_) {
       pending_.pop_front();
@@ -91,7 +106,7 @@ class PreprocessService {
     }
     scene_to_message(preprocessor_.scene(), message, out_);
     out_.utime = now_utime();
-    lcm_.publish(channel::kScene, &out_);
+    publish_message(lcm_, channel::kScene, out_);
     status_.frame_done(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   }
 
@@ -103,6 +118,8 @@ class PreprocessService {
   std::deque<frame_t> pending_;  // in arrival order
   frame_t spare_;                // the next frame is decoded into this one
   std::int64_t dropped_ = 0;
+  std::int64_t last_sender_ = 0;  // envelope.sender of the last frame taken
+  std::int64_t last_seq_ = -1;    // and its seq
   scene_cloud_t out_{};
 };
 
@@ -120,7 +137,9 @@ int main(int argc, char** argv) {
   setup_logging("preprocess", 0);
   install_signal_handlers();
   return run_service_main([&] {
-    const PreprocessConfig config = load_preprocess_config(load_config_file(config_path));
+    const YAML::Node root = load_config_file(config_path);
+    const PreprocessConfig config = load_preprocess_config(root);
+    install_group_security(root);
     const mfot::PreprocessorOptions& options = config.preprocessor;
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {

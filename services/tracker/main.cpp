@@ -5,6 +5,7 @@
 // likelihood backend (JCSD on CUDA or CPU, or the point-to-point baseline) is chosen at run time;
 // each worker owns its CUDA stream.
 
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/pipeline_config.hpp"
@@ -26,10 +27,12 @@ class LcmTrackerLink : public TrackerSink {
  public:
   LcmTrackerLink(lcm::LCM& lcm, StatusReporter& status) : lcm_(lcm), status_(status) {}
   void publish_estimate(const tracker_estimate_t& estimate) override {
-    lcm_.publish(channel::kEstimate, &estimate);
+    publish_message(lcm_, channel::kEstimate, estimate);
     status_.frame_done(estimate.compute_ms);
   }
-  void publish_heartbeat(const heartbeat_t& heartbeat) override { lcm_.publish(channel::kHeartbeat, &heartbeat); }
+  void publish_heartbeat(const heartbeat_t& heartbeat) override {
+    publish_message(lcm_, channel::kHeartbeat, heartbeat);
+  }
   void note(const std::string& message) override { status_.set_message(message); }
 
   void subscribe(TrackerWorker& worker, std::int32_t worker_id) {
@@ -37,12 +40,14 @@ class LcmTrackerLink : public TrackerSink {
     lcm_.subscribe(channel::model_channel(worker_id), &LcmTrackerLink::on_model, this);
     lcm_.subscribe(channel::kFrameDone, &LcmTrackerLink::on_frame_done, this);
     lcm_.subscribe(channel::kScene, &LcmTrackerLink::on_scene, this);
+    lcm_.subscribe(channel::kStatus, &LcmTrackerLink::on_status, this);
   }
 
  private:
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_model(rbuf, chan); }
   void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_frame_done(rbuf, chan); }
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_scene(rbuf, chan); }
+  void on_status(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_status(rbuf, chan); }
 
   lcm::LCM& lcm_;
   StatusReporter& status_;
@@ -85,12 +90,14 @@ int main(int argc, char** argv) {
   int worker_id = 0;
   app.add_option("--config", config_path, "YAML config (section `tracker`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
-  app.add_option("--worker-id", worker_id, "this worker's id, unique in the group")->required()->check(CLI::Range(0, 100000));
+  app.add_option("--worker-id", worker_id, "this worker's id, unique in the group")->required()->check(CLI::Range(0, kMaxWorkerId));
   CLI11_PARSE(app, argc, argv);
   setup_logging("tracker", worker_id);
   install_signal_handlers();
   return run_service_main([&] {
-    const TrackerConfig config = load_tracker_config(load_config_file(config_path));
+    const YAML::Node root = load_config_file(config_path);
+    const TrackerConfig config = load_tracker_config(root);
+    install_group_security(root);
     lcm::LCM lcm(lcm_url(lcm_url_arg));
     if (!lcm.good()) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));

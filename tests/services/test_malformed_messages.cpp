@@ -268,15 +268,19 @@ frame_done_t make_frame_done(int claimed) {
   return msg;
 }
 
-// Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order).
-constexpr std::size_t kSceneNumPoints = 8 + 24 + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
-constexpr std::size_t kModelNumPoints = 8 + 16 + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
-constexpr std::size_t kPosesNumObjects = 8 + 24;
-constexpr std::size_t kFrameDoneNumObjects = 8 + 16;
+// Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order). Every type has
+// envelope_t (56 bytes) right after utime.
+constexpr std::size_t kEnvelope = 56;
+constexpr std::size_t kSceneNumPoints = 8 + 24 + kEnvelope + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
+constexpr std::size_t kModelNumPoints = 8 + 16 + kEnvelope + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
+constexpr std::size_t kPosesNumObjects = 8 + 24 + kEnvelope;
+constexpr std::size_t kFrameDoneNumObjects = 8 + 16 + kEnvelope;
 constexpr std::size_t kFrameDoneEntry = 4 + 4 + 8 + 4 + 56 + 8 + 48;  // fixed fields of one frame_done_object_t
 // The second entry's num_claimed (the first has none).
 constexpr std::size_t kFrameDoneSecondNumClaimed = kFrameDoneNumObjects + 4 + kFrameDoneEntry + 4 + kFrameDoneEntry;
-std::size_t frame_depth_size_offset(const frame_t& msg) { return 8 + 24 + 4 + msg.source.size() + 1 + 24 + 1; }
+std::size_t frame_depth_size_offset(const frame_t& msg) {
+  return 8 + 24 + kEnvelope + 4 + msg.source.size() + 1 + 24 + 1;
+}
 
 // ---- checks shared by every type ----------------------------------------------------------------
 
@@ -555,7 +559,7 @@ TEST(MalformedMessages, SegmentationCountIsGuarded) {
   MalformedCounter malformed;
   segmentation_t out;
   ASSERT_TRUE(decode(bytes, out, malformed, channel::kSegmentation));
-  patch_int32(bytes, 8 + 16, 2000000000);
+  patch_int32(bytes, 8 + 16 + kEnvelope, 2000000000);
   EXPECT_FALSE(decode(bytes, out, malformed, channel::kSegmentation));
   EXPECT_EQ(malformed.total(), 1);
 }

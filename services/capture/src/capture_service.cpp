@@ -154,7 +154,7 @@ class CaptureService {
     message.seq = seq_;
     message.capture_utime = item.frame.capture_utime;  // after a --loop offset
     message.utime = service::now_utime();
-    if (lcm_.publish(kFrame, &message) != 0) spdlog::warn("LCM publish of frame seq {} failed", seq_);
+    if (service::publish_message(lcm_, kFrame, message) != 0) spdlog::warn("LCM publish of frame seq {} failed", seq_);
     last_capture_utime_ = item.frame.capture_utime;
     if (!truth_writer_) return;
     if (!item.truth) {

@@ -29,6 +29,28 @@ void check_frame_size(const std::string& what, int width, int height) {
   }
 }
 
+}  // namespace
+
+std::optional<std::string> implausible_frame_sizes(const frame_t& message) {
+  if (message.width <= 0 || message.height <= 0 || message.width > kMaxFrameSide || message.height > kMaxFrameSide) {
+    return "size " + std::to_string(message.width) + "x" + std::to_string(message.height) + " (each side 1.." +
+           std::to_string(kMaxFrameSide) + ")";
+  }
+  constexpr std::size_t kSlack = 64 * 1024;
+  const std::size_t pixels = pixel_count(message.width, message.height);
+  if (static_cast<std::size_t>(message.depth_size) > 2 * 2 * pixels + kSlack) {
+    return "depth_size " + std::to_string(message.depth_size) + " bytes for " + std::to_string(message.width) + "x" +
+           std::to_string(message.height) + " (at most twice the raw size plus 64 KiB)";
+  }
+  if (static_cast<std::size_t>(message.color_size) > 2 * 3 * pixels + kSlack) {
+    return "color_size " + std::to_string(message.color_size) + " bytes for " + std::to_string(message.width) + "x" +
+           std::to_string(message.height) + " (at most twice the raw size plus 64 KiB)";
+  }
+  return std::nullopt;
+}
+
+namespace {
+
 void check_intrinsics(const std::string& what, float fx, float fy, float cx, float cy) {
   if (!(std::isfinite(fx) && fx > 0.0f && std::isfinite(fy) && fy > 0.0f)) {
     throw FrameCodecError(what + ": focal lengths must be finite and positive (fx=" + std::to_string(fx) +
@@ -295,7 +317,7 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
                      std::int64_t utime) {
   options.validate();
   frame.validate();
-  frame_t message;
+  frame_t message{};  // the envelope too: zero until publish_message stamps it
   message.utime = utime;
   message.capture_utime = frame.capture_utime;
   message.seq = seq;

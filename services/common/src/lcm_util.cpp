@@ -1,6 +1,8 @@
 #include "mfot/service/lcm_util.hpp"
 
 #include "mfot/frame_done_t.hpp"
+#include "mfot/service/message_authenticator.hpp"
+
 #include "mfot/frame_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
@@ -68,6 +70,52 @@ std::string MalformedCounter::last() const {
 }
 
 namespace {
+std::shared_ptr<MessageAuthenticator> g_authenticator;
+std::mutex g_publish_mutex;
+std::mutex g_rejected_mutex;
+std::map<std::pair<std::string, Verdict>, std::int64_t> g_rejected;  // first of each logged
+}  // namespace
+
+void install_message_authenticator(std::shared_ptr<MessageAuthenticator> authenticator) {
+  g_authenticator = std::move(authenticator);
+}
+
+MessageAuthenticator* message_authenticator() { return g_authenticator.get(); }
+
+int publish_encoded(lcm::LCM& lcm, const std::string& channel, std::vector<std::uint8_t> message) {
+  std::lock_guard lock(g_publish_mutex);
+  if (g_authenticator && !g_authenticator->stamp(message)) {
+    spdlog::error("not publishing {} bytes on {}: too short for an envelope", message.size(), channel);
+    return -1;
+  }
+  return lcm.publish(channel, message.data(), static_cast<unsigned>(message.size()));
+}
+
+bool message_is_authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, MalformedCounter& malformed) {
+  MessageAuthenticator* auth = g_authenticator.get();
+  if (auth == nullptr) return true;
+  const Verdict verdict =
+      auth->verify(channel_name, static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, now_utime());
+  if (verdict == Verdict::kAccepted) return true;
+  if (verdict == Verdict::kNoEnvelope) {
+    malformed.record(channel_name, "undecodable", "too short for a message (" + std::to_string(rbuf->data_size) + " bytes)");
+    return false;
+  }
+  std::lock_guard lock(g_rejected_mutex);
+  if (++g_rejected[{channel_name, verdict}] == 1) {
+    spdlog::warn("{} message on {} dropped ({}); further ones are only counted (service_status_t)",
+                 verdict_name(verdict), channel_name,
+                 verdict == Verdict::kForeign ? "another group's id" : verdict == Verdict::kForged
+                     ? "wrong MAC: not signed with this group's key" : "sequence not above the sender's last, or too old");
+  }
+  return false;
+}
+
+namespace {
+
+// Every top-level type carries envelope_t (56 bytes on the wire: group_id, sender, sequence, mac[4])
+// right after utime; the offsets below are those without it plus kEnvelopeBytes.
+constexpr std::size_t kEnvelopeBytes = 56;
 
 // A message being checked against the wire layout of type T (big-endian, 8-byte fingerprint
 // first, lcmtypes/*.lcm). Offsets below count the fields before each array count.
@@ -113,14 +161,14 @@ bool fixed_count_fits(const lcm::ReceiveBuffer* rbuf, std::int64_t fingerprint, 
 // hash 8 | utime, frame_seq, capture_utime 24 | width, height 8 | fx, fy, cx, cy, voxel_size 20 |
 // voxel_origin 12 | plane 16 | num_points; per point x, y, z 12 + r, g, b 3 + u, v 4 + cluster 4.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
-  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 88, 23);
+  return fixed_count_fits(rbuf, scene_cloud_t::getHash(), 88 + kEnvelopeBytes, 23);
 }
 
 // hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,
 // orientation, velocity 104 | carried_by 4 | companion, companion_motion 52 | num_points; per point x, y, z 12 +
 // r, g, b 3.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
-  return fixed_count_fits(rbuf, object_model_t::getHash(), 204, 15);
+  return fixed_count_fits(rbuf, object_model_t::getHash(), 204 + kEnvelopeBytes, 15);
 }
 
 // hash 8 | utime 8 | worker_id 4 | instance 8 | host (int32 length incl. NUL, bytes) | object_id,
@@ -128,31 +176,31 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const heartbeat_t*) {
   const WireLayout wire(rbuf, heartbeat_t::getHash());
   std::int64_t host_length = 0;
-  if (!wire.ours() || !wire.int32_at(28, host_length)) return true;
-  return host_length >= 1 && wire.fits(32, host_length, 1);
+  if (!wire.ours() || !wire.int32_at(28 + kEnvelopeBytes, host_length)) return true;
+  return host_length >= 1 && wire.fits(32 + kEnvelopeBytes, host_length, 1);
 }
 
 // hash 8 | utime, frame_seq 16 | num_points; per point label 4.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const segmentation_t*) {
-  return fixed_count_fits(rbuf, segmentation_t::getHash(), 24, 4);
+  return fixed_count_fits(rbuf, segmentation_t::getHash(), 24 + kEnvelopeBytes, 4);
 }
 
 // hash 8 | utime, frame_seq, capture_utime 24 | num_objects; per object_pose_t id 4 + ten
 // double vectors 208 + confidence 4 + stale 1.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const poses_t*) {
-  return fixed_count_fits(rbuf, poses_t::getHash(), 32, 217);
+  return fixed_count_fits(rbuf, poses_t::getHash(), 32 + kEnvelopeBytes, 217);
 }
 
-// hash 8 | utime, frame_seq 16 | num_objects; per frame_done_object_t: object_id, worker_id 8 |
+// hash 8 | utime 8 | envelope 56 | frame_seq 8 | num_objects; per frame_done_object_t: object_id, worker_id 8 |
 // worker_instance 8 | version 4 | position, orientation 56 | carried_by, companion 8 | companion_motion 48 |
 // num_claimed; per claimed point x, y, z 12.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_done_t*) {
   constexpr std::size_t kObjectFixed = 132;
   const WireLayout wire(rbuf, frame_done_t::getHash());
   std::int64_t objects = 0;
-  if (!wire.ours() || !wire.int32_at(24, objects)) return true;
-  if (!wire.fits(28, objects, kObjectFixed + 4)) return false;
-  std::size_t offset = 28;
+  if (!wire.ours() || !wire.int32_at(24 + kEnvelopeBytes, objects)) return true;
+  if (!wire.fits(28 + kEnvelopeBytes, objects, kObjectFixed + 4)) return false;
+  std::size_t offset = 28 + kEnvelopeBytes;
   for (std::int64_t k = 0; k < objects; ++k) {
     std::int64_t claimed = 0;
     if (!wire.int32_at(offset + kObjectFixed, claimed)) return true;
@@ -168,11 +216,11 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_done_t*) {
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*) {
   const WireLayout wire(rbuf, frame_t::getHash());
   std::int64_t source_length = 0;
-  if (!wire.ours() || !wire.int32_at(32, source_length)) return true;
+  if (!wire.ours() || !wire.int32_at(32 + kEnvelopeBytes, source_length)) return true;
   // The length counts the string's NUL, so it is >= 1; lcm-gen computes length - 1 in int, which
   // overflows for INT32_MIN (found by tests/fuzz/fuzz_frame_decoder.cpp).
   if (source_length < 1) return false;
-  const std::size_t depth_offset = 36 + static_cast<std::size_t>(source_length) + 25;
+  const std::size_t depth_offset = 36 + kEnvelopeBytes + static_cast<std::size_t>(source_length) + 25;
   std::int64_t depth_size = 0;
   if (!wire.int32_at(depth_offset, depth_size)) return true;
   if (!wire.fits(depth_offset + 4, depth_size, 1)) return false;

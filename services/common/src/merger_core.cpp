@@ -86,6 +86,17 @@ void MergerCore::on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& 
 void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
   heartbeat_t msg;
   if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  // Ranges first: a held object id beyond kMaxObjectId would push the id counter (retirement
+  // reserves the ids through it) to overflow.
+  if (msg.worker_id < 0 || msg.worker_id > kMaxWorkerId || msg.object_id < -1 || msg.object_id == 0 ||
+      msg.object_id > kMaxObjectId || msg.last_frame_seq < -1) {
+    malformed_.record(channel_name, "invalid heartbeat",
+                      "worker id " + std::to_string(msg.worker_id) + " (0.." + std::to_string(kMaxWorkerId) +
+                          "), object id " + std::to_string(msg.object_id) + " (-1 or 1.." +
+                          std::to_string(kMaxObjectId) + ") or last frame " + std::to_string(msg.last_frame_seq) +
+                          " (>= -1) out of range");
+    return;
+  }
   const auto exists = [this](std::int32_t id) { return manager_.objects().count(id) > 0; };
   const std::int64_t seq = frames_.last_finished_seq();
   const WorkerPool::Reply reply = workers_.heartbeat(

@@ -39,31 +39,32 @@ void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_
                                std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed,
                                std::int32_t recipient) {
   const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, claimed, now_utime());
-  lcm_.publish(channel::model_channel(recipient), &msg);
+  publish_message(lcm_, channel::model_channel(recipient), msg);
 }
 
 void LcmMergerLink::send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) {
   const object_model_t msg = retirement_message(object_id, frame_seq, now_utime());
-  lcm_.publish(channel::model_channel(recipient), &msg);
+  publish_message(lcm_, channel::model_channel(recipient), msg);
 }
 
 void LcmMergerLink::send_frame_done(frame_done_t& message) {
   message.utime = now_utime();
-  lcm_.publish(channel::kFrameDone, &message);
+  publish_message(lcm_, channel::kFrameDone, message);
 }
 
 void LcmMergerLink::resend_scene(std::span<const std::uint8_t> message) {
-  lcm_.publish(channel::kScene, message.data(), static_cast<unsigned>(message.size()));
+  // Re-stamped as ours: receivers already accepted preprocess's sequence number for it.
+  publish_encoded(lcm_, channel::kScene, std::vector<std::uint8_t>(message.begin(), message.end()));
 }
 
 void LcmMergerLink::publish_frame(const FinishedFrame& frame) {
   const Scene& scene = frame.scene;
   const segmentation_t seg = segmentation_message(scene.frame_seq, frame.result.labels, now_utime());
-  lcm_.publish(channel::kSegmentation, &seg);
+  publish_message(lcm_, channel::kSegmentation, seg);
   const poses_t poses =
       poses_message(scene.frame_seq, scene.capture_utime, frame.objects, world_from_camera_, velocities_, now_utime());
   if (outputs_) outputs_->write_poses(scene.frame_seq, scene.capture_utime, frame.objects);
-  lcm_.publish(channel::kPoses, &poses);
+  publish_message(lcm_, channel::kPoses, poses);
   // The files that only evaluation reads come after the poses, off the frame-to-pose path (in
   // lockstep the next frame is on its way meanwhile).
   if (outputs_) {

@@ -50,7 +50,7 @@ object_model_t retirement_message(std::int32_t object_id, std::int64_t frame_seq
 poses_t poses_message(std::int64_t frame_seq, std::int64_t capture_utime,
                       const std::map<std::int32_t, ManagedObject>& objects, const Pose& world_from_camera,
                       PoseVelocityEstimator& velocities, std::int64_t utime) {
-  poses_t poses;
+  poses_t poses{};
   poses.utime = utime;
   poses.frame_seq = frame_seq;
   poses.capture_utime = capture_utime;
@@ -77,7 +77,7 @@ poses_t poses_message(std::int64_t frame_seq, std::int64_t capture_utime,
 }
 
 segmentation_t segmentation_message(std::int64_t frame_seq, std::span<const std::int32_t> labels, std::int64_t utime) {
-  segmentation_t seg;
+  segmentation_t seg{};
   seg.utime = utime;
   seg.frame_seq = frame_seq;
   seg.num_points = static_cast<std::int32_t>(labels.size());

@@ -145,6 +145,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.companion_turn_min_cosine = read_option<float>(s, "companion_turn_min_cosine");
   c.step.companion_turn_max_kept = read_option<float>(s, "companion_turn_max_kept");
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
+  c.merger_timeout_ms = read_option<int>(s, "merger_timeout_ms");
   c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
   c.scenes.model_wait =
       std::chrono::milliseconds(read_option<int>(s, "model_wait_ms"));

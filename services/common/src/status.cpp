@@ -1,6 +1,7 @@
 #include "mfot/service/status.hpp"
 
 #include "mfot/percentile.hpp"
+#include "mfot/service/message_authenticator.hpp"
 
 #include "mfot/service_status_t.hpp"
 
@@ -33,7 +34,7 @@ void StatusReporter::publish() {
   const auto now = Clock::now();
   const double elapsed = std::max(1e-3, std::chrono::duration<double>(now - last_report_).count());
   const std::vector<double> window(latencies_ms_.begin(), latencies_ms_.end());
-  service_status_t msg;
+  service_status_t msg{};
   msg.utime = now_utime();
   msg.service = service_;
   msg.instance = instance_;
@@ -45,10 +46,17 @@ void StatusReporter::publish() {
   msg.queue_depth = queue_depth_;
   msg.frames = frames_;
   msg.malformed = malformed_.total();
+  if (const MessageAuthenticator* auth = message_authenticator()) {
+    const AuthCounts counts = auth->counts();
+    msg.foreign = counts.foreign;
+    msg.forged = counts.forged;
+    msg.replayed = counts.replayed;
+  }
   msg.message = message_.empty() ? malformed_.last() : message_;
-  lcm_.publish(channel::kStatus, &msg);
-  spdlog::debug("status: {:.1f} Hz, latency p50 {:.2f} ms p99 {:.2f} ms, frames {}, malformed {}, backend {}",
-                msg.rate_hz, msg.latency_p50_ms, msg.latency_p99_ms, msg.frames, msg.malformed, msg.backend);
+  publish_message(lcm_, channel::kStatus, msg);
+  spdlog::debug("status: {:.1f} Hz, latency p50 {:.2f} ms p99 {:.2f} ms, frames {}, malformed {}, foreign {}, forged {}, replayed {}, backend {}",
+                msg.rate_hz, msg.latency_p50_ms, msg.latency_p99_ms, msg.frames, msg.malformed, msg.foreign, msg.forged,
+                msg.replayed, msg.backend);
   frames_at_last_report_ = frames_;
   last_report_ = now;
 }

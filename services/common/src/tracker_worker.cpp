@@ -2,6 +2,7 @@
 
 #include "mfot/frame_done_t.hpp"
 #include "mfot/object_model_t.hpp"
+#include "mfot/service_status_t.hpp"
 #include "mfot/service/convert.hpp"
 
 #include <spdlog/spdlog.h>
@@ -16,13 +17,35 @@ TrackerWorker::TrackerWorker(const TrackerConfig& config, TrackerIdentity identi
       malformed_(malformed),
       clock_(std::move(clock)),
       tracker_(ObjectTrackerOptions{config.likelihood, config.filter, config.step}),
-      scenes_(config.scenes) {}
+      scenes_(config.scenes),
+      merger_(std::chrono::milliseconds(config.merger_timeout_ms)) {}
+
+void TrackerWorker::on_status(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  service_status_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  if (msg.service == "merger") merger_.heard(msg.envelope.sender, clock_());
+}
 
 void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
   object_model_t msg;
   if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
   if (msg.frame_seq < -1) {
     malformed_.record(channel_name, "invalid model", "frame_seq below -1");
+    return;
+  }
+  if (msg.object_id < 1 || msg.object_id > kMaxObjectId || msg.worker_id < -1 || msg.worker_id > kMaxWorkerId) {
+    malformed_.record(channel_name, "invalid model",
+                      "object id " + std::to_string(msg.object_id) + " or worker id " + std::to_string(msg.worker_id) +
+                          " out of range [1, " + std::to_string(kMaxObjectId) + "], [-1, " +
+                          std::to_string(kMaxWorkerId) + "]");
+    return;
+  }
+  // Only the group's merger assigns and takes objects: a model from another process while it is
+  // alive is refused (counted), whoever it is addressed to.
+  if (!merger_.accepts(msg.envelope.sender, clock_())) {
+    malformed_.record(channel_name, "model from another merger",
+                      "sender " + std::to_string(msg.envelope.sender) + " is not the group's merger (" +
+                          std::to_string(merger_.owner().value_or(0)) + ")");
     return;
   }
   // Addressed to another worker, or to this worker id in another process (two processes given
@@ -82,6 +105,13 @@ void TrackerWorker::on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::str
   if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
   if (msg.frame_seq < -1) {
     malformed_.record(channel_name, "invalid frame end", "frame_seq below -1");
+    return;
+  }
+  // Only the group's merger ends frames: an end from another process would drop or move the object held.
+  if (!merger_.accepts(msg.envelope.sender, clock_())) {
+    malformed_.record(channel_name, "frame end from another merger",
+                      "sender " + std::to_string(msg.envelope.sender) + " is not the group's merger (" +
+                          std::to_string(merger_.owner().value_or(0)) + ")");
     return;
   }
   const frame_done_object_t* held = nullptr;  // the entry of the object held

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,11 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
 // Which images decode_frame decodes. kDepthOnly leaves Frame::color empty, for consumers that
 // need depth alone (the merger's label images): the JPEG colour is most of a frame's decoding time.
 enum class FrameParts { kDepthAndColor, kDepthOnly };
+
+// A received frame's sizes checked before it is queued or decoded (issue 55): sides in
+// 1..kMaxFrameSide, and depth_size / color_size at most twice their raw size plus 64 KiB (every
+// encoding compresses, so a 60 MB frame of 640x480 is refused at once). nullopt = plausible, else why not.
+std::optional<std::string> implausible_frame_sizes(const frame_t& message);
 
 // Validates and decodes a wire message; throws FrameCodecError naming the problem. The colour's
 // size and encoding fields are checked in both modes. With a pool of two or more threads depth

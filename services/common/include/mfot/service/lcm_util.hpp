@@ -8,8 +8,10 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace mfot {
 class frame_done_t;
@@ -22,6 +24,8 @@ class segmentation_t;
 }  // namespace mfot
 
 namespace mfot::service {
+
+class MessageAuthenticator;
 
 namespace channel {
 inline constexpr const char* kFrame = "MFOT_FRAME";                // frame_t, capture -> preprocess, merger
@@ -38,6 +42,12 @@ inline constexpr const char* kStatus = "MFOT_STATUS";              // service_st
 // The channel of the models for worker `worker_id` (>= 0).
 inline std::string model_channel(std::int32_t worker_id) { return kModelPrefix + std::to_string(worker_id); }
 }  // namespace channel
+
+// Ranges of received ids (issue 55), checked where messages arrive so that no value can overflow a
+// counter: object ids received are 1..kMaxObjectId (a heartbeat or model naming another is dropped and
+// counted as malformed), worker ids 0..kMaxWorkerId (mfot-tracker --worker-id's range).
+inline constexpr std::int32_t kMaxObjectId = 1000000;
+inline constexpr std::int32_t kMaxWorkerId = 100000;
 
 // Lockstep sources (mfot-capture, also replaying a log) keep at most this many frames out whose poses have
 // not come back (capture.lockstep_window). One: a frame's latency is its own processing time (more
@@ -76,6 +86,29 @@ class MalformedCounter {
   std::string last_;
 };
 
+// The process's MessageAuthenticator (message_authenticator.hpp): every service installs one at start
+// (install_group_security, group_security.hpp); publish_message stamps with it and decode_message
+// verifies with it. None installed (unit tests, tools): messages go out unstamped and all are accepted.
+void install_message_authenticator(std::shared_ptr<MessageAuthenticator> authenticator);
+MessageAuthenticator* message_authenticator();
+
+// Stamps an encoded message (when an authenticator is installed) and publishes it; lcm's result (0 = sent).
+// Stamping and sending hold one lock, so one process's messages leave in sequence order.
+int publish_encoded(lcm::LCM& lcm, const std::string& channel, std::vector<std::uint8_t> message);
+
+// Encodes, stamps and publishes an lcm-gen message: what every service publishes goes through here.
+template <class T>
+int publish_message(lcm::LCM& lcm, const std::string& channel, const T& message) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(message.getEncodedSize()));
+  if (message.encode(bytes.data(), 0, static_cast<int>(bytes.size())) != static_cast<int>(bytes.size())) return -1;
+  return publish_encoded(lcm, channel, std::move(bytes));
+}
+
+// The installed authenticator's verdict on a received message: true to accept. A foreign, forged or
+// replayed one is counted by the authenticator (service_status_t foreign/forged/replayed) and the
+// first of each kind per channel logged; one too short for an envelope is counted as malformed.
+bool message_is_authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, MalformedCounter& malformed);
+
 // lcm-gen's decode resizes each array to its declared count before checking that the buffer
 // holds the elements, so a 100-byte message declaring num_points = 2e9 would allocate and zero
 // gigabytes (which succeeds under Linux overcommit, so catching std::bad_alloc is not enough).
@@ -96,14 +129,16 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer*, const T*) {
 }
 
 // Decodes an lcm-gen type; a truncated buffer, wrong fingerprint, array count larger than the
-// buffer or bytes left over after the message are counted and return false.
+// buffer or bytes left over after the message are counted and return false. With `authenticate`
+// (all live traffic; not a recorded log's events) the message must first pass message_is_authentic.
 template <class T>
 bool decode_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, T& out,
-                    MalformedCounter& malformed) {
+                    MalformedCounter& malformed, bool authenticate = true) {
   if (rbuf->data_size > static_cast<std::uint32_t>(INT32_MAX)) {
     malformed.record(channel_name, "oversized", std::to_string(rbuf->data_size) + " bytes");
     return false;
   }
+  if (authenticate && !message_is_authentic(rbuf, channel_name, malformed)) return false;
   if (!declared_sizes_fit(rbuf, static_cast<const T*>(nullptr))) {
     malformed.record(channel_name, "bad array size",
                      "declared array or string sizes do not fit the " + std::to_string(rbuf->data_size) +

@@ -23,6 +23,7 @@
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/object_tracker.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/sender_lock.hpp"
 #include "mfot/service/tracker_scene_queue.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 
@@ -64,6 +65,8 @@ class TrackerWorker {
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // MFOT_STATUS: the merger's status keeps its process the one models are taken from (SenderLock).
+  void on_status(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // Step 3; returns the frames tracked.
   int step();
 
@@ -83,6 +86,7 @@ class TrackerWorker {
   ObjectTracker tracker_;
   TrackerSceneQueue scenes_;
   std::vector<Eigen::Vector3f> claimed_;  // of the last model or frame_done_t entry taken
+  SenderLock merger_;                     // the merger process models are taken from
   Clock::time_point next_heartbeat_{};
   std::int64_t skipped_at_heartbeat_ = 0;
   std::int64_t reported_fallbacks_ = 0;
