@@ -1,9 +1,9 @@
 // mfot-config: prints what the option table (services/common/src/option_table.cpp) generates:
 // configs/default.yaml (--print-defaults) and docs/options.md (--print-docs).
-#include "mfot/service/options.hpp"
-
 #include <cstring>
 #include <iostream>
+
+#include "mfot/service/options.hpp"
 
 int main(int argc, char** argv) {
   if (argc == 2 && std::strcmp(argv[1], "--print-defaults") == 0) {

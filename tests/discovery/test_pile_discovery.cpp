@@ -5,13 +5,6 @@
 // issue's target for procedural clutter), none spurious, and almost no point of the pile left in no object. A wall of
 // boxes across the table, from the image's bottom edge to the back, must stand on the table.
 // MFOT_PILE_CONFIG=FILE lays a config over the defaults, MFOT_PILE_DEBUG=1 prints which objects hold each body.
-#include "mfot/object_discovery.hpp"
-#include "mfot/object_manager.hpp"
-#include "mfot/preprocessing.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/pipeline_config.hpp"
-#include "mfot/sim/scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -21,6 +14,13 @@
 #include <map>
 #include <vector>
 
+#include "mfot/object_discovery.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/sim/scene.hpp"
+
 namespace mfot {
 namespace {
 
@@ -29,8 +29,8 @@ constexpr float kGap = 0.0005f;  // between touching objects
 
 struct Body {
   sim::PrimitiveKind kind;
-  Eigen::Vector3f size;        // box edges / cylinder (diameter, diameter, height)
-  Eigen::Isometry3f world;     // body -> world (table z = 0, z up)
+  Eigen::Vector3f size;     // box edges / cylinder (diameter, diameter, height)
+  Eigen::Isometry3f world;  // body -> world (table z = 0, z up)
   Rgb8 color;
 };
 
@@ -62,8 +62,8 @@ std::vector<Body> pile() {
   // A thin box leaning on the tall one's left face, 20 degrees.
   const float tilt = 20.f * kPi / 180.f, half_h = 0.07f;
   const float xb = -0.155f - 0.14f * std::sin(tilt) - 0.015f * std::cos(tilt) - kGap;
-  b.push_back(box(0.03f, 0.08f, 0.14f,
-                  at(xb + half_h * std::sin(tilt), 0.14f, half_h * std::cos(tilt), 0.f, 20.f), {235, 205, 35}));
+  b.push_back(box(0.03f, 0.08f, 0.14f, at(xb + half_h * std::sin(tilt), 0.14f, half_h * std::cos(tilt), 0.f, 20.f),
+                  {235, 205, 35}));
   b.push_back(box(0.07f, 0.07f, 0.18f, at(-0.12f, 0.14f, 0.09f), {190, 40, 165}));
   // A row of touching objects of different heights.
   b.push_back(box(0.08f, 0.08f, 0.12f, at(-0.20f, -0.03f, 0.06f), {30, 175, 195}));
@@ -88,8 +88,8 @@ std::vector<Body> wall() {
   const Rgb8 colors[4] = {{200, 30, 35}, {35, 160, 60}, {35, 70, 200}, {235, 205, 35}};
   for (int k = 0; k < 12; ++k) {
     const float depth = 0.10f;
-    b.push_back(box(0.12f, depth, 0.10f + 0.02f * (k % 3), at(0.f, -0.45f + k * (depth + kGap), 0.05f + 0.01f * (k % 3)),
-                    colors[k % 4]));
+    b.push_back(box(0.12f, depth, 0.10f + 0.02f * (k % 3),
+                    at(0.f, -0.45f + k * (depth + kGap), 0.05f + 0.01f * (k % 3)), colors[k % 4]));
   }
   return b;
 }
@@ -132,18 +132,18 @@ sim::RenderedFrame render(const std::vector<Body>& bodies, std::uint64_t noise_s
 }
 
 struct PileResult {
-  int objects = 0;      // ground-truth objects with voxels
-  int found = 0;        // of them, held by one object with IoU >= 0.5
-  int spurious = 0;     // objects mostly on the table
-  float unassigned = 0; // share of the objects' voxels in no object
-  double ms = 0;        // the first frame's ObjectManager::process (discovery included)
+  int objects = 0;       // ground-truth objects with voxels
+  int found = 0;         // of them, held by one object with IoU >= 0.5
+  int spurious = 0;      // objects mostly on the table
+  float unassigned = 0;  // share of the objects' voxels in no object
+  double ms = 0;         // the first frame's ObjectManager::process (discovery included)
   std::vector<int> missed;
 };
 
 PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t noise_seed) {
   const char* overlay = std::getenv("MFOT_PILE_CONFIG");  // a config laid over the defaults, to try settings
-  const YAML::Node config = overlay != nullptr ? service::load_config_file(overlay)
-                                               : service::merged_over_defaults(YAML::Node());
+  const YAML::Node config =
+      overlay != nullptr ? service::load_config_file(overlay) : service::merged_over_defaults(YAML::Node());
   const auto preprocess = service::load_preprocess_config(config);
   const auto merger = service::load_merger_config(config);
   const sim::RenderedFrame frame = render(bodies, noise_seed);
@@ -164,7 +164,8 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
   std::map<std::pair<int, int>, int> overlap;
   int object_voxels = 0, unassigned = 0;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const int truth = frame.labels[static_cast<std::size_t>(cloud.pixel_v[i]) * frame.intrinsics.width + cloud.pixel_u[i]];
+    const int truth =
+        frame.labels[static_cast<std::size_t>(cloud.pixel_v[i]) * frame.intrinsics.width + cloud.pixel_u[i]];
     const int label = labels[i];
     if (truth != 0) {
       ++truth_size[truth];

@@ -1,19 +1,18 @@
 // LcmLogReader: every way a log file can be broken is reported with its byte offset, before anything
 // is allocated from a header; a valid log (written by LCM's own writer) reads back event for event.
 
-#include "mfot/service/lcm_log_reader.hpp"
-
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
+#include <unistd.h>
 
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
+#include "mfot/service/lcm_log_reader.hpp"
 
 namespace mfot::service {
 namespace {
@@ -70,8 +69,8 @@ Bytes concat(std::initializer_list<Bytes> parts) {
   return out;
 }
 
-const Bytes kFirst = event_bytes(0, "MFOT_FRAME", Bytes(5, 7));    // 28 + 10 + 5 = 43 bytes
-const Bytes kSecond = event_bytes(1, "MFOT_POSES", Bytes(3, 9));   // starts at byte 43
+const Bytes kFirst = event_bytes(0, "MFOT_FRAME", Bytes(5, 7));   // 28 + 10 + 5 = 43 bytes
+const Bytes kSecond = event_bytes(1, "MFOT_POSES", Bytes(3, 9));  // starts at byte 43
 
 // The error `read` throws, after `events_before` good events; fails the test when none is thrown.
 LcmLogError error_of(const std::string& path, int events_before) {
@@ -190,7 +189,8 @@ TEST(LcmLogReader, EmptyFileIsNotAnLcmLog) {
 
 TEST(LcmLogReader, ForeignFileIsNotAnLcmLog) {
   TempFile file;
-  file.write(Bytes{0x7f, 'E', 'L', 'F', 2, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 3, 0, 0x3e, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0});
+  file.write(
+      Bytes{0x7f, 'E', 'L', 'F', 2, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 3, 0, 0x3e, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0});
   expect_message(error_of(file.str(), 0), {file.str(), "starts with 0x7f454c46", "not an LCM log"});
   file.write(Bytes{0xED, 0xA1});
   expect_message(error_of(file.str(), 0), {"2 bytes, too short", "not an LCM log"});

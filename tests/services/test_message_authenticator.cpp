@@ -1,22 +1,20 @@
 // MessageAuthenticator (issue 55) on encoded messages, no LCM sockets: stamping, the group check,
 // HMAC-SHA256, replay, the key file's mode and length; and SenderLock.
 
-#include "encoded_message.hpp"
-
-#include "mfot/heartbeat_t.hpp"
-#include "mfot/poses_t.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/message_authenticator.hpp"
-#include "mfot/service/sender_lock.hpp"
-
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <string>
 
-#include <sys/stat.h>
-#include <unistd.h>
+#include "encoded_message.hpp"
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/message_authenticator.hpp"
+#include "mfot/service/sender_lock.hpp"
 
 namespace mfot::service {
 namespace {
@@ -165,9 +163,7 @@ TEST(MessageAuthenticator, TheEnvelopeSitsAtOneOffsetInEveryType) {
 
 class KeyFile : public ::testing::Test {
  protected:
-  void SetUp() override {
-    path_ = std::filesystem::temp_directory_path() / ("mfot_key_" + std::to_string(getpid()));
-  }
+  void SetUp() override { path_ = std::filesystem::temp_directory_path() / ("mfot_key_" + std::to_string(getpid())); }
   void TearDown() override { std::filesystem::remove(path_); }
   void write(const std::string& bytes, mode_t mode) {
     std::ofstream(path_, std::ios::binary) << bytes;

@@ -1,9 +1,5 @@
 // The core's option structs against the declarations (services/common/src/option_table.cpp): a
 // library user who builds them in code should run what the services run.
-#include "mfot/service/config.hpp"
-#include "mfot/service/options.hpp"
-#include "mfot/service/pipeline_config.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +7,10 @@
 #include <set>
 #include <string>
 #include <type_traits>
+
+#include "mfot/service/config.hpp"
+#include "mfot/service/options.hpp"
+#include "mfot/service/pipeline_config.hpp"
 
 namespace mfot::service {
 namespace {
@@ -76,8 +76,9 @@ void expect_same(const T& loaded, const T& plain, const char* key) {
     }
   }();
   if (kStructKeepsTheThesis.count(key)) {
-    EXPECT_FALSE(agree) << key << ": the option struct's default now agrees with the declared one: take it off "
-                                  "kStructKeepsTheThesis";
+    EXPECT_FALSE(agree) << key
+                        << ": the option struct's default now agrees with the declared one: take it off "
+                           "kStructKeepsTheThesis";
   } else {
     const auto text = [](const T& v) {
       if constexpr (std::is_enum_v<T>) {

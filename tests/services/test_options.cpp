@@ -1,12 +1,6 @@
 // The option table (services/common/src/option_table.cpp) is the one declaration of every option:
 // these tests fail when the shipped files, the loaders' ranges or the option structs' defaults
 // disagree with it.
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/options.hpp"
-#include "mfot/service/pipeline_config.hpp"
-#include "mfot/sim/simulator.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,6 +12,12 @@
 #include <sstream>
 #include <string>
 #include <type_traits>
+
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/options.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot::service {
 namespace {
@@ -141,10 +141,9 @@ void load_with(const std::string& key, const std::string& value) {
 
 // Keys whose bound the core refuses in a range that another key's value sets: final_iterations <= icp_iterations,
 // voxel_resolution <= seed_resolution, confirm_votes <= confirm_frames.
-const std::set<std::string> kCrossField = {
-    "tracker.icp_final_iterations",
-    "tracker.icp_iterations",           "merger.discovery.voxel_resolution", "merger.discovery.seed_resolution",
-    "merger.discovery.confirm_votes",   "merger.discovery.confirm_frames"};
+const std::set<std::string> kCrossField = {"tracker.icp_final_iterations",      "tracker.icp_iterations",
+                                           "merger.discovery.voxel_resolution", "merger.discovery.seed_resolution",
+                                           "merger.discovery.confirm_votes",    "merger.discovery.confirm_frames"};
 
 // The loaders take their ranges from the declarations: just outside a declared bound is refused with
 // the key and "out of range", and the bound itself is never refused as out of range (neither by the

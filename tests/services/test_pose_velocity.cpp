@@ -1,12 +1,12 @@
 // PoseVelocityEstimator: velocities from poses and their frames' capture times, at any camera rate,
 // across dropped frames, zero for first and stale poses.
 
-#include "mfot/service/pose_velocity.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+
+#include "mfot/service/pose_velocity.hpp"
 
 namespace mfot::service {
 namespace {
@@ -30,8 +30,8 @@ Pose pose_at(double t) {
 std::int64_t utime_of(int frame, double fps) { return 1'700'000'000'000'000 + std::llround(frame * 1e6 / fps); }
 
 void expect_near(const Eigen::Vector3d& actual, const Eigen::Vector3d& expected, double tolerance) {
-  EXPECT_NEAR((actual - expected).norm(), 0.0, tolerance) << "actual " << actual.transpose() << ", expected "
-                                                          << expected.transpose();
+  EXPECT_NEAR((actual - expected).norm(), 0.0, tolerance)
+      << "actual " << actual.transpose() << ", expected " << expected.transpose();
 }
 
 class AtFrameRate : public ::testing::TestWithParam<double> {};
@@ -110,7 +110,8 @@ TEST(PoseVelocity, AHalfTurnAndMoreTakesTheShorterWay) {
   PoseVelocityEstimator velocities;
   const auto about_z = [](double degrees) {
     Pose p;
-    p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(degrees * M_PI / 180), Eigen::Vector3f::UnitZ()));
+    p.rotation =
+        Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(degrees * M_PI / 180), Eigen::Vector3f::UnitZ()));
     return p;
   };
   velocities.update(1, about_z(0), utime_of(0, 30), false);
@@ -122,7 +123,8 @@ TEST(PoseVelocity, AHalfTurnAndMoreTakesTheShorterWay) {
 
 TEST(PoseVelocity, WorldFrameVelocitiesAreTheCameraOnesRotatedIntoTheWorld) {
   Pose world_from_camera;
-  world_from_camera.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(1.2f, Eigen::Vector3f(0.3f, -1, 0.5f).normalized()));
+  world_from_camera.rotation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(1.2f, Eigen::Vector3f(0.3f, -1, 0.5f).normalized()));
   world_from_camera.translation = Eigen::Vector3f(0.5f, 2.f, -1.f);  // a translation does not change velocities
   const Eigen::Matrix3d r = world_from_camera.rotation.cast<double>().toRotationMatrix();
   PoseVelocityEstimator velocities(world_from_camera);
@@ -132,7 +134,9 @@ TEST(PoseVelocity, WorldFrameVelocitiesAreTheCameraOnesRotatedIntoTheWorld) {
   expect_near(v.world_angular, r * kAngular, 2e-4);
   // The same motion seen in the world frame directly: world poses differenced give the same.
   PoseVelocityEstimator in_world;
-  const auto world_pose = [&](double t) { return Pose::from_isometry(world_from_camera.isometry() * pose_at(t).isometry()); };
+  const auto world_pose = [&](double t) {
+    return Pose::from_isometry(world_from_camera.isometry() * pose_at(t).isometry());
+  };
   in_world.update(1, world_pose(0), utime_of(0, 30), false);
   const ObjectVelocity w = in_world.update(1, world_pose(1 / 30.0), utime_of(1, 30), false);
   expect_near(w.linear, v.world_linear, 2e-4);

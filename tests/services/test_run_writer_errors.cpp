@@ -2,15 +2,14 @@
 // system's reason, never a silent loss. /dev/full (every write fails with ENOSPC) stands in for the
 // disk: the files are symbolic links to it.
 
-#include "mfot/service/run_writer.hpp"
-#include "mfot/service/service_main.hpp"
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
 
-#include <unistd.h>
+#include "mfot/service/run_writer.hpp"
+#include "mfot/service/service_main.hpp"
 
 namespace mfot::service {
 namespace {

@@ -2,14 +2,14 @@
 // or above the table, no interpenetration, every object seen, labels on the posed surfaces, the
 // camera on the table), and every motion class produced and behaving as named.
 
-#include "mfot/sim/simulator.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
+
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot::sim {
 namespace {

@@ -1,6 +1,6 @@
 #pragma once
 // Objects carried while hidden (a departure from the thesis, whose filters follow whatever covers an
-// object; README "Where mfot departs from the thesis"): a box that a hand grips, lifts and turns is
+// object; docs/departures.md): a box that a hand grips, lifts and turns is
 // hidden behind that hand for a second or more (`rotate`: 30-45 frames, up to 94 % of its model
 // occluded, while it turns 50 degrees). Its tracker can only hold it (TrackingStep), so its pose
 // would wait where it was last seen. When, before it was hidden, it moved rigidly with an object

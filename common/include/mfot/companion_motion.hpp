@@ -1,5 +1,5 @@
 #pragma once
-// A companion's motion for a gripped object's filter (a departure from the thesis, README "Where mfot
+// A companion's motion for a gripped object's filter (a departure from the thesis, docs/experiment-log.md "Where mfot
 // departs from the thesis"): a box that a hand grips and turns turns with the hand, but its own dX
 // (2.13) lags the turn, since the filter's weighted mean and its refinement move only part of the way
 // each frame while the hand covers much of it (`rotate`: the box's estimate trails the hand's by up to

@@ -38,12 +38,12 @@ struct IcpRefinementOptions {
   // The last final_iterations iterations take up to final_points scene points instead (0 = none): the
   // early iterations move the estimate on a cheap sample, the last ones average the noise out on a dense
   // one. Cheaper than every iteration on final_points, but it follows weakly held directions less well
-  // (README "ICP on 2000 points"). [0, iterations] and [3, 1000000].
+  // (docs/experiment-log.md "ICP on 2000 points"). [0, iterations] and [3, 1000000].
   int final_iterations = 0;
   int final_points = 400;
   // The pairs of the object's first-view points (see refine's step 1) weigh this much in the fit, the
   // points grown since 1: where the first view shows, it holds the object's frame, which the pose error
-  // of each growth would otherwise shift (README "Anchored on the first view"). [1, 1000]; 1 = all alike.
+  // of each growth would otherwise shift (docs/experiment-log.md "Anchored on the first view"). [1, 1000]; 1 = all alike.
   float anchor_weight = 1.f;
   // Throws std::invalid_argument naming the field as owner.field.
   void validate(const std::string& owner = "IcpRefinementOptions") const;

@@ -15,7 +15,7 @@
 //      frame's seq (a counter-based draw: the same frame gives the same grid in any replay). On a
 //      fixed grid a surface at rest yields the same pattern of voxel means in every frame, so
 //      point-to-point ICP onto a model sampled from that surface locks onto the pose the model
-//      was sampled at, and holds back a box that starts to turn from there (README "Measured":
+//      was sampled at, and holds back a box that starts to turn from there (docs/experiment-log.md:
 //      "A voxel grid that moves every frame");
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
 //      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by

@@ -1,6 +1,6 @@
 #pragma once
 // One object's tracking step on one frame: hypothesis data (thesis 3.3) and the particle filter
-// (2.2.2, 3.1, likelihood 3.20/3.21), with mfot's occlusion handling around them (README "Where
+// (2.2.2, 3.1, likelihood 3.20/3.21), with mfot's occlusion handling around them (docs/experiment-log.md "Where
 // mfot departs from the thesis"): the thesis scores every scene point near the last estimate, so a
 // hand passing over an object pulls its filter onto the hand.
 
@@ -73,7 +73,7 @@ struct TrackingStepOptions {
   // Without a hand or a neighbour near it, the score's mode is the object, and following it harder
   // (more particles moved by dX, a pattern search on the score) keeps up with fast turns; where a hand
   // grips the object the mode lies partly on the hand, and the thesis's broad step holds it better
-  // (README "Motion-model options"). Needs exclude_claimed_radius > 0 (else no object is known to be
+  // (docs/experiment-log.md "Motion-model options"). Needs exclude_claimed_radius > 0 (else no object is known to be
   // isolated); equal to the filter's options = the thesis everywhere.
   bool follow_isolated = false;
   StepMotion isolated_motion{.predicted_fraction = 0.75f, .refine_rounds = 2};  // tracker.isolated_*
@@ -84,7 +84,7 @@ struct TrackingStepOptions {
   // its 15 mm kernel, so its mode lies degrees from the pose at some views.
   IcpRefinementOptions icp;
   // The pairing distance of step 5b's ICP in a frame where the object is isolated (as follow_isolated tells it),
-  // instead of icp.max_distance (a departure from the thesis, off by default; README "A tighter pairing for isolated
+  // instead of icp.max_distance (a departure from the thesis, off by default; docs/experiment-log.md "A tighter pairing for isolated
   // objects, not the default"). A turning box shows faces its model does not hold yet, or holds only in part: their
   // scene points within the pairing distance of the model's rim pair with it and pull the estimate over, and the face
   // then grows at that pose (`spin` seed 117: a face grown 4.4 degrees off). Where a hand is near, the wider pairing
@@ -92,7 +92,7 @@ struct TrackingStepOptions {
   // [0.0001, 0.1] (the floor of every pairing distance in the config); 0 = icp.max_distance. Used only with
   // follow_isolated (no object is isolated without it).
   float isolated_icp_max_distance = 0.f;
-  // The last estimate as a second start (departure from the thesis; README "A partly hidden object kept where
+  // The last estimate as a second start (departure from the thesis; docs/experiment-log.md "A partly hidden object kept where
   // it was"). The JCSD score sums the model's density at the scene points, so where part of an object is
   // hidden, a pose that sinks its visible surface into the model's hidden side scores higher (`apart`: the
   // base box, still, 8 degrees and 14 mm off while an arm hides half of it, at a 2-3 % higher score). In a
@@ -108,7 +108,7 @@ struct TrackingStepOptions {
   // [0, 1): 0 keeps the last pose on any lower charge; a margin leaves the noise-level ties to the filter (a
   // gripped box about to turn).
   float last_pose_check_margin = 0.f;
-  // The companion's pose as a second start (departure from the thesis; README "A gripped object started where its
+  // The companion's pose as a second start (departure from the thesis; docs/experiment-log.md "A gripped object started where its
   // companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at least
   // last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined too,
   // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points, with
@@ -116,10 +116,10 @@ struct TrackingStepOptions {
   // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
   // the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it keeps its
   // place. Needs hold_occluded_share > 0. false = the filter's estimate (thesis); configs/default.yaml turns it on
-  // (README "A gripped object started where its companion takes it, by default").
+  // (docs/experiment-log.md "A gripped object started where its companion takes it, by default").
   bool companion_pose_check = false;
   // The filter's turn, kept where the companion turns the same way and the refinement turns it back (step 5e; departure
-  // from the thesis; README "A turn the filter and the companion agree on"). On the preprocessor's fixed voxel grid a
+  // from the thesis; docs/experiment-log.md "A turn the filter and the companion agree on"). On the preprocessor's fixed voxel grid a
   // surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly from rest pairs
   // point to point with where it was: ICP turned the filter's estimate back by about as much as the filter's step
   // turned it, 1-2 degrees a frame, until the box was 11-14 degrees off (`rotate`, the hand's quick turn). In a frame

@@ -30,11 +30,11 @@
 //     same way; the table under it while it holds is kept free of other objects.
 //  7. Summary: motion class, mover, objects' shapes and textures, spin axis and camera (scene.yaml).
 
-#include "script.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
+
+#include "script.hpp"
 
 namespace mfot::sim::detail {
 

@@ -1,15 +1,15 @@
 #include "mfot/service/group_security.hpp"
 
-#include "mfot/service/config.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/message_authenticator.hpp"
-#include "mfot/service/options.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "mfot/service/config.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/message_authenticator.hpp"
+#include "mfot/service/options.hpp"
 
 namespace mfot::service {
 

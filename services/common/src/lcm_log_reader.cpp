@@ -1,12 +1,11 @@
 #include "mfot/service/lcm_log_reader.hpp"
 
 #include <fmt/format.h>
+#include <sys/stat.h>
 
 #include <array>
 #include <cerrno>
 #include <cstring>
-
-#include <sys/stat.h>
 
 namespace mfot::service {
 namespace {
@@ -38,9 +37,10 @@ LcmLogReader::LcmLogReader(std::string path, LcmLogLimits limits)
   std::array<std::uint8_t, 4> magic{};
   const std::size_t got = std::fread(magic.data(), 1, magic.size(), file_.get());
   if (got < magic.size() || be32(magic.data()) != kLcmLogSync) {
-    fail(got < magic.size() ? fmt::format("{} bytes, too short to start with the LCM log sync word: not an LCM log", size_)
-                            : fmt::format("starts with 0x{:08x}, not the LCM log sync word 0x{:08x}: not an LCM log",
-                                          be32(magic.data()), kLcmLogSync));
+    fail(got < magic.size()
+             ? fmt::format("{} bytes, too short to start with the LCM log sync word: not an LCM log", size_)
+             : fmt::format("starts with 0x{:08x}, not the LCM log sync word 0x{:08x}: not an LCM log",
+                           be32(magic.data()), kLcmLogSync));
   }
   rewind();
 }

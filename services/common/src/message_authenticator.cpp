@@ -1,10 +1,9 @@
 #include "mfot/service/message_authenticator.hpp"
 
-#include "mfot/service/config.hpp"
-
 #include <openssl/core_names.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
+#include <sys/stat.h>
 
 #include <array>
 #include <cerrno>
@@ -14,7 +13,7 @@
 #include <iterator>
 #include <stdexcept>
 
-#include <sys/stat.h>
+#include "mfot/service/config.hpp"
 
 namespace mfot::service {
 
@@ -38,11 +37,16 @@ void write_int64(std::uint8_t* p, std::int64_t value) {
 
 const char* verdict_name(Verdict verdict) {
   switch (verdict) {
-    case Verdict::kAccepted: return "accepted";
-    case Verdict::kNoEnvelope: return "no envelope";
-    case Verdict::kForeign: return "foreign";
-    case Verdict::kForged: return "forged";
-    case Verdict::kReplayed: return "replayed";
+    case Verdict::kAccepted:
+      return "accepted";
+    case Verdict::kNoEnvelope:
+      return "no envelope";
+    case Verdict::kForeign:
+      return "foreign";
+    case Verdict::kForged:
+      return "forged";
+    case Verdict::kReplayed:
+      return "replayed";
   }
   return "?";
 }
@@ -88,11 +92,13 @@ MessageAuthenticator::MessageAuthenticator(std::int64_t group_id, std::int64_t s
   }
 }
 
-void MessageAuthenticator::mac(const std::uint8_t* data, std::size_t size, std::uint8_t out[envelope::kMacBytes]) const {
+void MessageAuthenticator::mac(const std::uint8_t* data, std::size_t size,
+                               std::uint8_t out[envelope::kMacBytes]) const {
   EVP_MAC_CTX* ctx = EVP_MAC_CTX_new(algorithm_->mac);
   if (ctx == nullptr) throw std::runtime_error("OpenSSL: EVP_MAC_CTX_new failed");
   char digest[] = "SHA256";
-  const OSSL_PARAM params[] = {OSSL_PARAM_construct_utf8_string(OSSL_MAC_PARAM_DIGEST, digest, 0), OSSL_PARAM_construct_end()};
+  const OSSL_PARAM params[] = {OSSL_PARAM_construct_utf8_string(OSSL_MAC_PARAM_DIGEST, digest, 0),
+                               OSSL_PARAM_construct_end()};
   static const std::array<std::uint8_t, envelope::kMacBytes> zeros{};
   std::size_t written = 0;
   const bool ok = EVP_MAC_init(ctx, key_.data(), key_.size(), params) == 1 &&

@@ -75,10 +75,14 @@ std::string option_comment(const OptionEntry& o) {
 std::string markdown_cell(std::string_view text) {
   std::string out;
   for (const char c : text) {
-    if (c == '|') out += "\\|";
-    else if (c == '<') out += "&lt;";
-    else if (c == '\n') out += ' ';
-    else out += c;
+    if (c == '|')
+      out += "\\|";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '\n')
+      out += ' ';
+    else
+      out += c;
   }
   return out;
 }
@@ -144,7 +148,8 @@ std::string generate_default_yaml() {
       }
       case OptionEntry::Kind::kOption: {
         const std::size_t indent = 2 * depth_of(e.key);
-        line_with_comment(out, std::string(indent, ' ') + std::string(leaf_of(e.key)) + ": " + std::string(e.default_value),
+        line_with_comment(out,
+                          std::string(indent, ' ') + std::string(leaf_of(e.key)) + ": " + std::string(e.default_value),
                           indent, option_comment(e));
         break;
       }
@@ -189,7 +194,8 @@ std::string generate_options_markdown() {
           in_table = true;
         }
         out += "| `" + std::string(e.key) + "` | `" + markdown_cell(e.default_value) + "` | " +
-               markdown_cell(option_range_text(e)) + " | " + std::string(e.unit) + " | " + markdown_cell(e.doc) + " |\n";
+               markdown_cell(option_range_text(e)) + " | " + std::string(e.unit) + " | " + markdown_cell(e.doc) +
+               " |\n";
         break;
     }
   }

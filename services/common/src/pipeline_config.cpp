@@ -257,7 +257,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
                                      : CarryOptions::GrippedAway::kCarry;
   carry.finish();
   if (c.manager.carry.gripped_away == CarryOptions::GrippedAway::kCarry) {
-    // Measured to lose the carried box (README "Carry mode and the trackers' settings"): refused here, where both
+    // Measured to lose the carried box (docs/experiment-log.md "Carry mode and the trackers' settings"): refused here, where both
     // sections are in view, rather than discovered in a run.
     auto tracker = config_section(root, "tracker");
     std::vector<std::string> on;  // the settings that must be 0

@@ -24,13 +24,13 @@
 namespace mfot::service {
 
 namespace envelope {
-inline constexpr std::size_t kOffset = 16;        // after the 8-byte fingerprint and utime
+inline constexpr std::size_t kOffset = 16;  // after the 8-byte fingerprint and utime
 inline constexpr std::size_t kGroupOffset = 16;
 inline constexpr std::size_t kSenderOffset = 24;
 inline constexpr std::size_t kSequenceOffset = 32;
 inline constexpr std::size_t kMacOffset = 40;
 inline constexpr std::size_t kMacBytes = 32;
-inline constexpr std::size_t kEnd = 72;           // a message shorter than this has no envelope
+inline constexpr std::size_t kEnd = 72;  // a message shorter than this has no envelope
 }  // namespace envelope
 
 // group.id's range: positive and exactly representable as a double (Python, YAML, JSON tools).

@@ -5,8 +5,6 @@
 // (mfot-config --print-defaults / --print-docs; tests/services/test_options.cpp fails when the
 // committed files differ).
 
-#include "mfot/service/config.hpp"
-
 #include <cstdint>
 #include <limits>
 #include <span>
@@ -15,6 +13,8 @@
 #include <string_view>
 #include <type_traits>
 #include <vector>
+
+#include "mfot/service/config.hpp"
 
 namespace mfot::service {
 
@@ -34,7 +34,7 @@ struct OptionEntry {
   // kInteger and kNumber: the inclusive bounds as written ("" = unbounded on that side).
   std::string_view min;
   std::string_view max;
-  bool min_open = false;  // the lower bound itself is refused: (min, max]
+  bool min_open = false;     // the lower bound itself is refused: (min, max]
   std::string_view choices;  // kChoice: "a|b|c"
   int size = 0;              // kList: the number of elements
   std::string_view unit;     // "m", "rad", "deg", "ms", "s" or "" (counts, shares, flags)

@@ -18,7 +18,7 @@ struct TrackerConfig {
   ParticleFilterOptions filter;
   TrackingStepOptions step;  // hypothesis data, occlusion hold and occluder removal
   int heartbeat_ms = 100;
-  int merger_timeout_ms = 0;  // tracker.merger_timeout_ms (0 here: models from any merger, for tests)
+  int merger_timeout_ms = 0;        // tracker.merger_timeout_ms (0 here: models from any merger, for tests)
   TrackerSceneQueueOptions scenes;  // queue_scenes, model_wait_ms
 };
 

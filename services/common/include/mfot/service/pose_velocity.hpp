@@ -12,12 +12,11 @@
 // next fresh pose then gives the mean velocity since the last fresh one), and a capture time not
 // after the previous one (a new frame sequence: that pose starts over).
 
-#include "mfot/types.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <map>
+
+#include "mfot/types.hpp"
 
 namespace mfot::service {
 
@@ -49,7 +48,7 @@ class PoseVelocityEstimator {
     Eigen::Quaterniond rotation;
     std::int64_t capture_utime;
   };
-  Eigen::Matrix3d world_rotation_;  // world_from_camera's rotation
+  Eigen::Matrix3d world_rotation_;       // world_from_camera's rotation
   std::map<std::int32_t, Sample> last_;  // each object's last fresh pose
 };
 
