@@ -58,6 +58,19 @@ class RepoTest(unittest.TestCase):
                                 text=True)
         self.assertEqual(result.returncode, 0, f"not formatted (run clang-format -i on them):\n{result.stderr[:4000]}")
 
+    def test_every_source_is_listed_in_its_cmake_file(self):
+        # Sources are listed by name (no globbing): a file left out would silently not be built or tested.
+        places = {"common/src": "common/CMakeLists.txt", "common/src/sim": "common/CMakeLists.txt",
+                  "services/common/src": "services/CMakeLists.txt", "cuda/src": "cuda/CMakeLists.txt",
+                  "tests/core": "tests/CMakeLists.txt", "tests/discovery": "tests/CMakeLists.txt",
+                  "tests/sim": "tests/CMakeLists.txt", "tests/cuda": "tests/CMakeLists.txt",
+                  "tests/services": "tests/services/CMakeLists.txt", "lcmtypes": "lcmtypes/CMakeLists.txt"}
+        for folder, cmake in places.items():
+            listed = (REPO / cmake).read_text()
+            for source in sorted((REPO / folder).iterdir()):
+                if source.suffix in (".cpp", ".cu", ".lcm"):
+                    self.assertRegex(listed, rf"(^|[\s/]){re.escape(source.name)}\s", f"{folder}/{source.name} not in {cmake}")
+
 
 if __name__ == "__main__":
     unittest.main()
