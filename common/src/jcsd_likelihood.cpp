@@ -136,7 +136,7 @@ void JcsdLikelihood::set_grid(JcsdGrid grid) {
 void JcsdLikelihood::copy_corners() {
   const std::size_t corners = grid_.num_corners();
   if (grid_.empty()) {
-    corners_.clear();
+    std::vector<Bins>().swap(corners_);  // no grid: nothing held
     return;
   }
   // A point outside the grid reads corners outside_corner_ + {0, 1} + {0, dims[0]} + {0, dims[0] * dims[1]}.

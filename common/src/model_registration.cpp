@@ -108,6 +108,13 @@ std::optional<Registration> ModelRegistration::register_model(const ObjectModel&
   const Eigen::AlignedBox3f box = model_bounding_box(model);
   if (points.points.empty() || box.isEmpty()) return std::nullopt;
   likelihood_.set_model(model);
+  // The grid spans the model's box (megabytes for a large model) and registrations are rare (an
+  // object seen again): it is released on every return, so the memory held between registrations
+  // does not grow with the largest model ever registered.
+  struct ReleaseGrid {
+    JcsdLikelihood& likelihood;
+    ~ReleaseGrid() { likelihood.set_grid(JcsdGrid{}); }
+  } release_grid{likelihood_};
 
   // 1. Coarse hypotheses.
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();

@@ -519,6 +519,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   if (known != 0) {
     take_id_back(known, scene, free_points, object);
   } else {
+    if (next_id_ > kMaxObjectId) return;  // every id given (kMaxObjectId): no new object, never an overflow
     object.id = next_id_++;
     born_unknown_.insert(object.id);
   }
@@ -539,6 +540,39 @@ void ObjectManager::add_object(ManagedObject object, std::span<const int> points
   birth_[object.id] = birth;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
+}
+
+void ObjectManager::resume_object(ManagedObject object) {
+  const std::int32_t id = object.id;
+  if (id < 1 || id > kMaxObjectId) {
+    throw std::invalid_argument("resume_object: id " + std::to_string(id) + " outside [1, " +
+                                std::to_string(kMaxObjectId) + "]");
+  }
+  if (objects_.contains(id)) throw std::invalid_argument("resume_object: id " + std::to_string(id) + " in use");
+  if (object.model.cloud.empty() || object.model.cloud.size() > options_.max_model_points) {
+    throw std::invalid_argument("resume_object: object " + std::to_string(id) + " has " +
+                                std::to_string(object.model.cloud.size()) + " model points, expected [1, " +
+                                std::to_string(options_.max_model_points) + "]");
+  }
+  if (object.version < 0) throw std::invalid_argument("resume_object: negative version");
+  object.confidence = 1.f;
+  object.stale = false;
+  object.held = false;
+  object.support = 0;
+  object.carried_by = 0;
+  object.companion = 0;
+  object.companion_motion = PoseVector::Zero();
+  object.created_frame = frames_;
+  object.part_ends = {static_cast<std::uint32_t>(object.model.cloud.size())};
+  object.model.features = compute_smr(object.model.cloud.colors, options_.smr);  // this manager's SMR options
+  ModelUpdateOptions update = options_.model_update;
+  update.seed = options_.model_update.seed + static_cast<std::uint64_t>(id);
+  updaters_.emplace(id, std::make_unique<ModelUpdater>(update));
+  first_seen_[id] = color_histogram(object.model);
+  birth_[id] = next_birth_++;  // born alone: never joined as a sibling
+  retired_.erase(id);
+  next_id_ = std::max(next_id_, id + 1);
+  objects_.emplace(id, std::move(object));
 }
 
 void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, std::span<const int> points,

@@ -29,6 +29,7 @@ struct CoreSubscriber {
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { core.on_scene(rbuf, chan); }
   void on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { core.on_estimate(rbuf, chan); }
   void on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { core.on_heartbeat(rbuf, chan); }
+  void on_model_report(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { core.on_model_report(rbuf, chan); }
 };
 
 int run_merger(lcm::LCM& lcm, const MergerConfig& config, const std::optional<std::string>& output_dir, bool append) {
@@ -39,6 +40,7 @@ int run_merger(lcm::LCM& lcm, const MergerConfig& config, const std::optional<st
   lcm.subscribe(channel::kScene, &CoreSubscriber::on_scene, &subscriber);
   lcm.subscribe(channel::kEstimate, &CoreSubscriber::on_estimate, &subscriber);
   lcm.subscribe(channel::kHeartbeat, &CoreSubscriber::on_heartbeat, &subscriber);
+  lcm.subscribe(channel::kModelReport, &CoreSubscriber::on_model_report, &subscriber);
   spdlog::info("merger up (tau {} m, alpha {})", config.manager.segmentation.tau, config.manager.model_update.alpha);
   while (!stop_requested()) {
     if (!handle_for(lcm, 5)) {

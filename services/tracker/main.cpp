@@ -33,6 +33,7 @@ class LcmTrackerLink : public TrackerSink {
   void publish_heartbeat(const heartbeat_t& heartbeat) override {
     publish_message(lcm_, channel::kHeartbeat, heartbeat);
   }
+  void publish_model_report(const object_model_t& report) override { publish_message(lcm_, channel::kModelReport, report); }
   void note(const std::string& message) override { status_.set_message(message); }
 
   void subscribe(TrackerWorker& worker, std::int32_t worker_id) {
@@ -41,6 +42,7 @@ class LcmTrackerLink : public TrackerSink {
     lcm_.subscribe(channel::kFrameDone, &LcmTrackerLink::on_frame_done, this);
     lcm_.subscribe(channel::kScene, &LcmTrackerLink::on_scene, this);
     lcm_.subscribe(channel::kStatus, &LcmTrackerLink::on_status, this);
+    lcm_.subscribe(channel::kModelRequest, &LcmTrackerLink::on_model_request, this);
   }
 
  private:
@@ -48,6 +50,9 @@ class LcmTrackerLink : public TrackerSink {
   void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_frame_done(rbuf, chan); }
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_scene(rbuf, chan); }
   void on_status(const lcm::ReceiveBuffer* rbuf, const std::string& chan) { worker_->on_status(rbuf, chan); }
+  void on_model_request(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+    worker_->on_model_request(rbuf, chan);
+  }
 
   lcm::LCM& lcm_;
   StatusReporter& status_;

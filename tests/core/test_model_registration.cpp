@@ -32,6 +32,23 @@ TEST(ModelRegistration, FindsAKnownModelTurnedAnyWayOnTheNearSideItShows) {
   }
 }
 
+TEST(ModelRegistration, HoldsNoGridBetweenRegistrationsOverManyOfThem) {
+  // A long run registers many objects seen again: the memory held between registrations must not
+  // keep the largest model's grid (megabytes) for ever.
+  ModelRegistration registration;
+  EXPECT_TRUE(registration.grid().empty());
+  const ObjectModel model = test::make_model(test::make_test_object(0.f, 0.008f, true));
+  const ObjectModel grey = test::make_model(test::make_test_object(0.f, 0.008f, false));
+  for (int i = 0; i < 20; ++i) {
+    const Pose truth = test::make_pose(Eigen::Vector3f(0.1f, -0.05f, 0.9f), Eigen::Vector3f(0.f, 0.f, 1.f),
+                                       0.1f * static_cast<float>(i));
+    // Found or not (another object's colours), no grid stays.
+    registration.register_model(i % 2 == 0 ? model : grey, seen_box(truth));
+    EXPECT_TRUE(registration.grid().empty()) << "registration " << i;
+    EXPECT_TRUE(registration.grid().values.capacity() == 0) << "registration " << i;
+  }
+}
+
 TEST(ModelRegistration, AnotherObjectHasNoRegistration) {
   const ObjectModel model = test::make_model(test::make_test_object(0.f, 0.008f, true));
   // A box of the same shape in one colour: nothing of the model's texture.

@@ -344,7 +344,8 @@ class ReliabilityTest(unittest.TestCase):
 
     def test_restarted_preprocess_and_merger(self):
         """SIGKILL preprocess, then the merger: mfot-run restarts each, the other services wait and
-        resume, and only frames published during an outage lack poses."""
+        resume, only frames published during an outage lack poses, and the restarted merger resumes
+        the objects its workers hold under the same ids."""
         frames = 110
         config = write_config(self.dir / "config.yaml", capture={"lockstep_timeout_s": 2.0})
         group, bus = self.start_group(7714, "--config", str(config), "--scenario", "static", "--workers", "3",
@@ -362,9 +363,14 @@ class ReliabilityTest(unittest.TestCase):
             outages.append((service, last_seq, resumed.frame_seq))
             if service == "merger":
                 self.assertEqual(len(resumed.objects), 3, "the restarted merger finds the three objects again")
-                earlier = {o.id for _, p in bus.snapshot("MFOT_POSES") if p.frame_seq <= last_seq for o in p.objects}
-                self.assertGreater(min(o.id for o in resumed.objects), max(earlier),
-                                   "new ids: controllers knew the old ones as the first merger's objects")
+                before = next(p for _, p in reversed(bus.snapshot("MFOT_POSES")) if p.frame_seq <= last_seq)
+                self.assertEqual({o.id for o in resumed.objects}, {o.id for o in before.objects},
+                                 "the restarted merger resumed the objects its workers hold: the same ids")
+                # ... with their models and poses: a static scene, so each pose is where it was.
+                for o in resumed.objects:
+                    old_pose = next(b for b in before.objects if b.id == o.id)
+                    self.assertLess(max(abs(a - b) for a, b in zip(o.position, old_pose.position)), 0.02,
+                                    f"object {o.id} resumed at its pose")
             bus.wait_for(f"poses of frame {next_seq}", poses_with_seq_at_least(next_seq), 60)
         # Restarts and the frames lost meanwhile are problems mfot-run names in its summary (exit 1).
         self.assertEqual(group.wait(120), 1, group.report())
@@ -391,11 +397,13 @@ class ReliabilityTest(unittest.TestCase):
         self.assertEqual(sum(line.startswith("frame,") for line in lines), 1)
         rows = {int(line.split(",")[0]) for line in lines[1:]}
         self.assertEqual(rows, set(answered))
-        # Trackers still holding the first merger's objects were told to drop them: every object
-        # after the restart is tracked (not stale) by the end.
+        # Trackers kept the objects they held across the merger restart: every object is tracked
+        # (not stale) by the end, under the ids it had from the start.
         last = logged(group.out, "MFOT_POSES")[-1][1]
         self.assertEqual(len(last.objects), 3)
         self.assertFalse(any(o.stale for o in last.objects))
+        first_ids = {o.id for _, p in logged(group.out, "MFOT_POSES") if p.frame_seq <= 25 for o in p.objects}
+        self.assertLessEqual({o.id for o in last.objects}, first_ids, "no id churn across both restarts")
 
     # 4 ------------------------------------------------------------------------------------------
 

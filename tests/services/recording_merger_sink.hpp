@@ -42,6 +42,9 @@ class RecordingSink : public MergerSink {
     retirements.emplace_back(object_id, frame_seq);
     retirement_recipients.push_back(recipient);
   }
+  void request_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t worker_instance) override {
+    requests.push_back({object_id, worker_id, worker_instance});
+  }
   void send_frame_done(frame_done_t& message) override { frame_dones.push_back(message); }
   void resend_scene(std::span<const std::uint8_t> message) override { resent_scenes.emplace_back(message.begin(), message.end()); }
   void publish_frame(const FinishedFrame& frame) override {
@@ -56,6 +59,7 @@ class RecordingSink : public MergerSink {
 
   std::vector<SentModel> models;
   std::vector<std::pair<std::int32_t, std::int64_t>> retirements;
+  std::vector<ObjectResumer::Request> requests;
   std::vector<std::int32_t> retirement_recipients;
   std::vector<frame_done_t> frame_dones;
   std::vector<std::vector<std::uint8_t>> resent_scenes;

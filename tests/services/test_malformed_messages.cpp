@@ -102,6 +102,7 @@ bool accept_model(const Bytes& bytes, MalformedCounter& malformed) {
   struct NoOutput : TrackerSink {
     void publish_estimate(const tracker_estimate_t&) override {}
     void publish_heartbeat(const heartbeat_t&) override {}
+    void publish_model_report(const object_model_t&) override {}
     void note(const std::string&) override {}
   } sink;
   testing::ManualClock clock;
@@ -120,6 +121,7 @@ bool accept_frame_done(const Bytes& bytes, MalformedCounter& malformed) {
   struct NoOutput : TrackerSink {
     void publish_estimate(const tracker_estimate_t&) override {}
     void publish_heartbeat(const heartbeat_t&) override {}
+    void publish_model_report(const object_model_t&) override {}
     void note(const std::string&) override {}
   } sink;
   testing::ManualClock clock;

@@ -6,6 +6,7 @@
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/frame_assembler.hpp"
 #include "mfot/service/merger_core.hpp"
+#include "mfot/service/merger_messages.hpp"
 #include "mfot/service/worker_pool.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
@@ -634,6 +635,153 @@ TEST_F(MergerCoreTest, AWorkerHoldingAnUnknownObjectIsToldToRetireItAndItsIdIsNo
   core.step();
   ASSERT_EQ(sink.frames.back().created.size(), 1u);
   EXPECT_GT(sink.frames.back().created[0], 7);
+}
+
+// A merger (restarted) that listens for resumable objects (ObjectResumer).
+struct ResumingMerger {
+  explicit ResumingMerger(MergerCoreOptions options, MalformedCounter& malformed, ManualClock& clock)
+      : core((options.resume.listen = 300ms, options.resume.report_timeout = 500ms, options), sink, malformed,
+             clock.function()) {}
+  template <class T>
+  void deliver(void (MergerCore::*handler)(const lcm::ReceiveBuffer*, const std::string&), const T& message) {
+    Bytes bytes = encode(message);
+    const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+    (core.*handler)(&buffer, "TEST");
+  }
+  RecordingSink sink;
+  MergerCore core;
+};
+
+// What a worker holding `object` answers a request (TrackerWorker::on_model_request).
+object_model_t report_of(const ManagedObject& object, std::int32_t worker, std::int64_t last_seq) {
+  object_model_t msg = model_message(object, worker, 100 + worker, last_seq, {}, 0);
+  msg.carried_by = 0;
+  msg.companion = 0;
+  return msg;
+}
+
+TEST_F(MergerCoreTest, ARestartedMergerResumesTheObjectsItsWorkersHoldWithTheirIdsModelsPosesAndOwners) {
+  // The merger before the restart: two blocks, objects 1 and 2 on workers 0 and 1.
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(0, -1, -1));
+  deliver(&MergerCore::on_heartbeat, heartbeat_of(1, -1, -1));
+  deliver(&MergerCore::on_scene, two_block_scene(0, 0.f));
+  ASSERT_EQ(core.step(), 1);
+  ASSERT_EQ(core.manager().objects().size(), 2u);
+  const std::int32_t owner_of_1 = core.workers().owner(1).value();
+  const std::int32_t owner_of_2 = core.workers().owner(2).value();
+
+  // It restarts; its workers go on heartbeating what they hold.
+  clock.advance(1000ms);
+  ResumingMerger restarted(options(), malformed, clock);
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(owner_of_1, 1, 0));
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(owner_of_2, 2, 0));
+  ASSERT_EQ(restarted.sink.requests.size(), 2u);
+  EXPECT_EQ(restarted.sink.requests[0].object_id, 1);
+  EXPECT_EQ(restarted.sink.requests[0].worker_id, owner_of_1);
+  EXPECT_EQ(restarted.sink.requests[0].worker_instance, 100 + owner_of_1);
+  EXPECT_TRUE(restarted.sink.retirements.empty());  // the answer may come: nothing retired
+  // Heartbeats before the answer ask nothing twice and retire nothing.
+  clock.advance(250ms);
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(owner_of_1, 1, 0));
+  EXPECT_EQ(restarted.sink.requests.size(), 2u);
+  EXPECT_TRUE(restarted.sink.retirements.empty());
+  restarted.deliver(&MergerCore::on_scene, two_block_scene(1, 0.f));
+  EXPECT_EQ(restarted.core.step(), 0);  // frames wait for the answers
+  restarted.deliver(&MergerCore::on_model_report, report_of(core.manager().objects().at(1), owner_of_1, 0));
+  restarted.deliver(&MergerCore::on_model_report, report_of(core.manager().objects().at(2), owner_of_2, 0));
+  EXPECT_EQ(malformed.total(), 0);
+  EXPECT_EQ(restarted.core.resumer().resumed(), 2);
+  clock.advance(100ms);  // listen over, nothing pending
+  EXPECT_EQ(restarted.core.step(), 0);  // frame 1 waits for its owners' estimates now
+  for (const std::int32_t id : {1, 2}) {
+    restarted.deliver(&MergerCore::on_estimate, estimate_of(1, id, id == 1 ? owner_of_1 : owner_of_2,
+                                                            core.manager().objects().at(id).pose));
+  }
+  EXPECT_EQ(restarted.core.step(), 1);
+  ASSERT_EQ(restarted.sink.frames.size(), 1u);
+  EXPECT_TRUE(restarted.sink.frames[0].created.empty());
+  EXPECT_TRUE(restarted.sink.frames[0].retired.empty());
+  for (const std::int32_t id : {1, 2}) {
+    const ManagedObject& before = core.manager().objects().at(id);
+    const ManagedObject& after = restarted.core.manager().objects().at(id);
+    EXPECT_EQ(after.model.cloud.size(), before.model.cloud.size());
+    EXPECT_GE(after.version, before.version);
+    EXPECT_TRUE(after.pose.translation.isApprox(before.pose.translation, 1e-3f));
+  }
+  EXPECT_TRUE(restarted.core.workers().owns(owner_of_1, 1));
+  EXPECT_TRUE(restarted.core.workers().owns(owner_of_2, 2));
+  // Objects 1 and 2 explain the blocks' points: no new object; a third block gets id 3.
+  scene_cloud_t three = two_block_scene(2, 0.f);
+  const scene_cloud_t far = block_scene(2, 0.4f);
+  for (std::size_t i = 0; i < far.x.size(); ++i) {
+    three.x.push_back(far.x[i]);
+    three.y.push_back(far.y[i]);
+    three.z.push_back(far.z[i]);
+    three.r.push_back(30);
+    three.g.push_back(30);
+    three.b.push_back(200);
+    three.u.push_back(static_cast<std::int16_t>(far.u[i] + 100));
+    three.v.push_back(far.v[i]);
+    three.cluster.push_back(2);
+  }
+  three.num_clusters = 3;
+  three.num_points = static_cast<std::int32_t>(three.x.size());
+  for (std::int64_t seq = 2; seq < 8; ++seq) {
+    three.frame_seq = seq;
+    restarted.deliver(&MergerCore::on_scene, three);
+    clock.advance(600ms);  // estimates time out (poses stale), the frame goes on
+    restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(owner_of_1, 1, seq));
+    restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(owner_of_2, 2, seq));
+    restarted.core.step();
+  }
+  ASSERT_EQ(restarted.core.manager().objects().size(), 3u);
+  EXPECT_EQ(restarted.core.manager().objects().rbegin()->first, 3);
+  EXPECT_TRUE(restarted.sink.retirements.empty());
+}
+
+TEST_F(MergerCoreTest, AForgedHeartbeatOrReportCannotMakeARestartedMergerAdoptAnObjectOrOverflowItsIds) {
+  ResumingMerger restarted(options(), malformed, clock);
+  // A stranger claims the largest ids: nothing is asked, the claim is counted, no id is reserved.
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(9, 2147483645, 0));
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(8, kMaxObjectId + 1, 0));
+  EXPECT_TRUE(restarted.sink.requests.empty());
+  EXPECT_EQ(malformed.total(), 2);
+  // A stranger claims object 2: asked, but what it (or anyone else) sends is refused unless it
+  // answers that request with a model.
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(7, 2, 0));
+  ASSERT_EQ(restarted.sink.requests.size(), 1u);
+  ManagedObject fake;
+  fake.id = 2;
+  fake.model.cloud.push_back({0.f, 0.f, 0.f}, {1, 2, 3});
+  object_model_t empty = report_of(fake, 7, 0);
+  empty.num_points = 0;
+  empty.x.clear(), empty.y.clear(), empty.z.clear(), empty.r.clear(), empty.g.clear(), empty.b.clear();
+  restarted.deliver(&MergerCore::on_model_report, empty);             // no model
+  restarted.deliver(&MergerCore::on_model_report, report_of(fake, 6, 0));  // not the worker asked
+  fake.id = 3;
+  restarted.deliver(&MergerCore::on_model_report, report_of(fake, 7, 0));  // not asked for
+  object_model_t far = report_of(fake, 7, 0);
+  far.object_id = 2;
+  far.x[0] = 100.f;  // beyond kMaxModelRadius
+  restarted.deliver(&MergerCore::on_model_report, far);
+  EXPECT_EQ(malformed.total(), 6);
+  EXPECT_TRUE(restarted.core.manager().objects().empty());
+  // The request times out: frames go on, the claimed object is retired, ids stay small.
+  restarted.deliver(&MergerCore::on_scene, block_scene(0, 0.f));
+  EXPECT_EQ(restarted.core.step(), 0);
+  clock.advance(501ms);
+  EXPECT_EQ(restarted.core.step(), 1);  // object 1 is born, and goes to the idle worker 7
+  clock.advance(300ms);                  // its model had time to arrive
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(7, 2, 0));
+  ASSERT_EQ(restarted.sink.retirements.size(), 3u);  // the two out of range at once, 2 after its request
+  EXPECT_EQ(restarted.sink.retirements.back().first, 2);
+  ASSERT_EQ(restarted.sink.frames.size(), 1u);
+  EXPECT_EQ(restarted.sink.frames[0].created, std::vector<std::int32_t>{1});
+  // Once a frame was finished nothing is resumed, and ids never overflow.
+  restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(5, 40, 0));
+  EXPECT_EQ(restarted.sink.requests.size(), 1u);
+  EXPECT_EQ(restarted.sink.retirements.back().first, 40);
+  EXPECT_EQ(restarted.core.resumer().resumed(), 0);
 }
 
 TEST_F(MergerCoreTest, MalformedMessagesAreCountedAndTheCoreKeepsServing) {

@@ -110,7 +110,9 @@ class RecordingTrackerSink : public TrackerSink {
  public:
   void publish_estimate(const tracker_estimate_t& estimate) override { estimates.push_back(estimate); }
   void publish_heartbeat(const heartbeat_t& heartbeat) override { heartbeats.push_back(heartbeat); }
+  void publish_model_report(const object_model_t& report) override { reports.push_back(report); }
   void note(const std::string& message) override { notes.push_back(message); }
+  std::vector<object_model_t> reports;
   std::vector<tracker_estimate_t> estimates;
   std::vector<heartbeat_t> heartbeats;
   std::vector<std::string> notes;
@@ -439,4 +441,42 @@ TEST_F(TrackerWorkerTest, MalformedFrameEndsAreCountedAndChangeNothing) {
 }
 
 }  // namespace
+TEST_F(TrackerWorkerTest, AnswersARestartedMergersRequestForTheObjectItHoldsOnly) {
+  object_model_t request{};
+  request.worker_id = 4;
+  request.worker_instance = 444;
+  request.object_id = 7;
+  request.orientation[0] = 1;
+  deliver(&TrackerWorker::on_model_request, request);
+  EXPECT_TRUE(sink.reports.empty());  // holds nothing
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  ASSERT_EQ(worker.step(), 1);
+  // Another object, another process under this id, or a request carrying points: no answer.
+  object_model_t other = request;
+  other.object_id = 8;
+  deliver(&TrackerWorker::on_model_request, other);
+  other = request;
+  other.worker_instance = 555;
+  deliver(&TrackerWorker::on_model_request, other);
+  EXPECT_TRUE(sink.reports.empty());
+  other = request;
+  model_to_message(kModel, other);
+  deliver(&TrackerWorker::on_model_request, other);
+  EXPECT_TRUE(sink.reports.empty());
+  EXPECT_EQ(malformed.total(), 1);
+  deliver(&TrackerWorker::on_model_request, request);
+  ASSERT_EQ(sink.reports.size(), 1u);
+  const object_model_t& report = sink.reports[0];
+  EXPECT_EQ(report.object_id, 7);
+  EXPECT_EQ(report.worker_id, 4);
+  EXPECT_EQ(report.worker_instance, 444);
+  EXPECT_EQ(report.version, 1);
+  EXPECT_EQ(report.frame_seq, 1);
+  EXPECT_EQ(report.num_points, static_cast<std::int32_t>(kModel.cloud.size()));
+  // Its last pose is its estimate of frame 1.
+  EXPECT_DOUBLE_EQ(report.position[0], sink.estimates.back().position[0]);
+  EXPECT_DOUBLE_EQ(report.orientation[0], sink.estimates.back().orientation[0]);
+}
+
 }  // namespace mfot::service

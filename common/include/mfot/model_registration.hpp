@@ -58,6 +58,8 @@ class ModelRegistration {
   // object's last pose), or none.
   std::optional<Registration> register_model(const ObjectModel& model, const HypothesisData& points,
                                              const std::optional<Eigen::Quaternionf>& prior = std::nullopt);
+  // The model's JCSD grid lives only during register_model: empty between calls.
+  const JcsdGrid& grid() const { return likelihood_.grid(); }
 
  private:
   // Translation-only ICP: moves pose by the mean offset of about 256 of the points from their

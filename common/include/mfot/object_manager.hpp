@@ -30,6 +30,11 @@
 
 namespace mfot {
 
+// The largest object id the manager gives or takes (resume_object, reserve_ids_through): ids are
+// int32 on the wire, and a million objects in one run is far beyond any scene; an id above it
+// received from outside is refused, so the id counter can never overflow.
+inline constexpr std::int32_t kMaxObjectId = 1'000'000;
+
 // Joining parts of one rigid object and splitting an object whose parts moved apart (step 7 of
 // ObjectManager). Member defaults: both off (the thesis has neither).
 struct JoinSplitOptions {
@@ -248,8 +253,19 @@ class ObjectManager {
   void claimed_points(std::int32_t id, float margin, std::vector<Eigen::Vector3f>& out) const;
   std::int64_t frames_processed() const { return frames_; }
   // Ids up to `id` are in use elsewhere (objects the trackers still hold when a merger restarts):
-  // new objects get larger ones.
-  void reserve_ids_through(std::int32_t id) { next_id_ = std::max(next_id_, id + 1); }
+  // new objects get larger ones. Ids outside [1, kMaxObjectId] are ignored (false): no received
+  // value can push the id counter towards overflow.
+  bool reserve_ids_through(std::int32_t id) {
+    if (id < 1 || id > kMaxObjectId) return false;
+    next_id_ = std::max(next_id_, id + 1);
+    return true;
+  }
+  // A restarted merger resumes an object its tracker still holds: under its own id, with its model
+  // (object frame, non-empty, at most max_model_points), version, pose and velocity as given; it
+  // starts with confidence 1 and one model part, as if created now, but is not reported as created.
+  // New objects get ids above it. Throws std::invalid_argument (nothing changed) for an id outside
+  // [1, kMaxObjectId], an id in use, an empty or oversized model or a negative version.
+  void resume_object(ManagedObject object);
 
  private:
   using ColorHistogram = std::array<float, kSmrBins>;

@@ -1,6 +1,7 @@
 #include "mfot/service/merger_core.hpp"
 
 #include "mfot/heartbeat_t.hpp"
+#include "mfot/object_model_t.hpp"
 #include "mfot/service/merger_messages.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 namespace mfot::service {
 
@@ -25,6 +27,11 @@ void MergerCoreOptions::validate() const {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("frames: ") + e.what());
   }
+  try {
+    resume.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("resume: ") + e.what());
+  }
   if (!(claimed_margin >= 0.f && claimed_margin <= 1.f)) {
     throw std::invalid_argument("MergerCoreOptions.claimed_margin must be in [0, 1] metres, got " +
                                 std::to_string(claimed_margin));
@@ -36,6 +43,7 @@ MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCou
     : manager_((options.validate(), options.manager), make_object_discovery(options.manager.discovery)),
       workers_(options.workers),
       frames_(options.frames),
+      resumer_(options.resume, clock()),
       sink_(sink),
       malformed_(malformed),
       clock_(std::move(clock)),
@@ -99,20 +107,66 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
   }
   const auto exists = [this](std::int32_t id) { return manager_.objects().count(id) > 0; };
   const std::int64_t seq = frames_.last_finished_seq();
+  const auto now = clock_();
   const WorkerPool::Reply reply = workers_.heartbeat(
-      {msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, clock_(), exists);
+      {msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, now, exists);
   if (reply.clash) sink_.note(*reply.clash);
+  // A restarted merger asks the (live, unclashing) holder of an object it does not know for it.
+  if (msg.object_id >= 0 && !exists(msg.object_id) && workers_.instance_of(msg.worker_id) == msg.instance &&
+      !workers_.owner(msg.object_id)) {
+    if (auto request = resumer_.held_unknown(msg.worker_id, msg.instance, msg.object_id, now)) {
+      sink_.request_model(request->object_id, request->worker_id, request->worker_instance);
+    }
+  }
   // Every correction is for the worker that heartbeat: its own object's model, or word on an object it
   // holds without owning it.
   for (const auto& correction : reply.corrections) {
     if (correction.kind == WorkerPool::Correction::Kind::kSendModel) {
       send_model(correction.object_id, correction.worker_id, seq, msg.worker_id);
-    } else {
+    } else if (!resumer_.pending(correction.object_id, now)) {  // else its report may resume it
       sink_.send_retirement(correction.object_id, seq, msg.worker_id);
-      // After a restart of this merger: controllers knew that id as another object.
-      manager_.reserve_ids_through(correction.object_id);
+      // After a restart of this merger: controllers knew that id as another object. An id beyond
+      // kMaxObjectId was never given by a merger: it is counted, and reserves nothing.
+      if (!manager_.reserve_ids_through(correction.object_id)) {
+        malformed_.record(channel_name, "object id out of range",
+                          "heartbeat of worker " + std::to_string(msg.worker_id) + " holds object " +
+                              std::to_string(correction.object_id));
+      }
     }
   }
+}
+
+void MergerCore::on_model_report(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  object_model_t msg;
+  if (!decode_message(rbuf, channel_name, msg, malformed_)) return;
+  const auto now = clock_();
+  if (manager_.objects().count(msg.object_id) > 0) {
+    malformed_.record(channel_name, "invalid model report", "object " + std::to_string(msg.object_id) + " exists");
+    return;
+  }
+  auto taken = resumer_.take_report(msg, now);
+  if (auto* error = std::get_if<std::string>(&taken)) {
+    malformed_.record(channel_name, "invalid model report", *error);
+    return;
+  }
+  ObjectResumer::Resumed& resumed = std::get<ObjectResumer::Resumed>(taken);
+  const std::int32_t id = resumed.object.id;
+  if (!workers_.resume_owner(id, resumed.worker_id, now)) {
+    malformed_.record(channel_name, "invalid model report",
+                      "worker " + std::to_string(resumed.worker_id) + " cannot own object " + std::to_string(id) +
+                          " (dead, or owns another)");
+    return;
+  }
+  try {
+    manager_.resume_object(std::move(resumed.object));
+  } catch (const std::invalid_argument& e) {
+    workers_.release(id, now);
+    malformed_.record(channel_name, "invalid model report", e.what());
+    return;
+  }
+  if (resumed.frame_seq >= 0) workers_.note_progress(id, resumed.frame_seq);
+  spdlog::info("object {} resumed from worker {} (model v{}, {} points, last frame {})", id, resumed.worker_id,
+               manager_.objects().at(id).version, manager_.objects().at(id).model.cloud.size(), resumed.frame_seq);
 }
 
 void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq,
@@ -144,6 +198,8 @@ int MergerCore::step() {
   const auto now = clock_();
   workers_.expire(now);
   assign_idle_workers(now);
+  // A restarted merger waits for its workers to say what they hold, and for their reports.
+  if (resumer_.holds_frames(now)) return 0;
   int finished = 0;
   for (;;) {
     const FrameAssembler::Poll poll = frames_.poll(now, workers_);
@@ -216,6 +272,7 @@ void MergerCore::finish_frame(Clock::time_point now) {
   send_frame_done(seq);
   sink_.publish_frame({due.scene, result, manager_.objects(), due_at});
   frames_.finished(clock_());
+  resumer_.close();  // from now on an unknown held object is one this merger retired
 }
 
 }  // namespace mfot::service

@@ -19,6 +19,9 @@ MergerCoreOptions merger_core_options(const MergerConfig& config) {
   options.frames.expected_workers = config.expected_workers;
   options.frames.startup_timeout = std::chrono::milliseconds(config.startup_timeout_ms);
   options.claimed_margin = config.claimed_margin;
+  options.resume.listen = std::chrono::milliseconds(config.resume_listen_ms);
+  options.resume.report_timeout = std::chrono::milliseconds(config.resume_timeout_ms);
+  options.resume.max_model_points = config.manager.max_model_points;
   return options;
 }
 
@@ -50,6 +53,17 @@ void LcmMergerLink::send_retirement(std::int32_t object_id, std::int64_t frame_s
 void LcmMergerLink::send_frame_done(frame_done_t& message) {
   message.utime = now_utime();
   publish_message(lcm_, channel::kFrameDone, message);
+}
+
+void LcmMergerLink::request_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t worker_instance) {
+  object_model_t msg{};  // no points: a request (TrackerWorker::on_model_request)
+  msg.utime = now_utime();
+  msg.frame_seq = -1;
+  msg.object_id = object_id;
+  msg.worker_id = worker_id;
+  msg.worker_instance = worker_instance;
+  msg.orientation[0] = 1;
+  publish_message(lcm_, channel::kModelRequest, msg);
 }
 
 void LcmMergerLink::resend_scene(std::span<const std::uint8_t> message) {

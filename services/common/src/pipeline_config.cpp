@@ -205,6 +205,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.worker_timeout_ms = read_option<int>(s, "worker_timeout_ms");
   c.expected_workers = read_option<int>(s, "expected_workers");
   c.startup_timeout_ms = read_option<int>(s, "startup_timeout_ms");
+  c.resume_listen_ms = read_option<int>(s, "resume_listen_ms");
+  c.resume_timeout_ms = read_option<int>(s, "resume_timeout_ms");
   c.write_labels = read_option<bool>(s, "write_labels");
   c.fitting_distance = read_option<bool>(s, "fitting_distance");
   auto discovery = s.section("discovery");

@@ -92,11 +92,35 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     malformed_.record(channel_name, "invalid model", e.what());
     return;
   }
+  last_pose_ = pose;  // the merger's pose of this model's frame, until the next estimate
   // What the other objects claimed as of this model's frame goes with the scenes it releases.
   tracker_.set_claimed_points(claimed_);
   tracker_.set_companion_motion(companion_motion);
   // Scenes the merger had already finished when it sent this model are not ours to track.
   scenes_.model_received(msg.object_id, msg.frame_seq);
+}
+
+void TrackerWorker::on_model_request(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
+  object_model_t request;
+  if (!decode_message(rbuf, channel_name, request, malformed_)) return;
+  if (request.object_id < 1 || request.num_points != 0) {
+    malformed_.record(channel_name, "invalid model request", "object_id below 1 or points in a request");
+    return;
+  }
+  if (request.worker_id != identity_.worker_id || request.worker_instance != identity_.instance) return;
+  if (!tracker_.has_object() || tracker_.object_id() != request.object_id) return;
+  object_model_t report{};
+  report.utime = now_utime();
+  report.frame_seq = scenes_.last_done();
+  report.object_id = tracker_.object_id();
+  report.worker_id = identity_.worker_id;
+  report.worker_instance = identity_.instance;
+  report.version = tracker_.model_version();
+  pose_to_arrays(last_pose_, report.position, report.orientation);
+  model_to_message(tracker_.model(), report);
+  spdlog::info("reporting object {} (model v{}, {} points) to a restarted merger", report.object_id, report.version,
+               report.num_points);
+  sink_.publish_model_report(report);
 }
 
 void TrackerWorker::on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
@@ -192,6 +216,7 @@ void TrackerWorker::track(const Scene& scene) {
   msg.worker_id = identity_.worker_id;
   msg.model_version = tracker_.model_version();
   pose_to_arrays(result.estimate, msg.position, msg.orientation);
+  last_pose_ = result.estimate;
   msg.confidence = result.confidence;
   msg.effective_sample_size = tracker_.filter().effective_sample_size();
   msg.num_particles = config_.filter.num_particles;

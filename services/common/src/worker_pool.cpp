@@ -147,6 +147,19 @@ std::vector<WorkerPool::Assignment> WorkerPool::assign(std::span<const std::int3
   return assigned;
 }
 
+bool WorkerPool::resume_owner(std::int32_t object_id, std::int32_t worker_id, Clock::time_point now) {
+  const auto it = workers_.find(worker_id);
+  if (it == workers_.end() || !it->second.alive || it->second.object_id >= 0 || owners_.contains(object_id)) {
+    return false;
+  }
+  it->second.object_id = object_id;
+  it->second.told_at = now;
+  owners_[object_id] = worker_id;
+  progress_.erase(object_id);
+  spdlog::info("object {} resumed on worker {} on {}", object_id, worker_id, it->second.host);
+  return true;
+}
+
 void WorkerPool::release(std::int32_t object_id, Clock::time_point now) {
   const auto it = owners_.find(object_id);
   if (it != owners_.end()) {

@@ -38,6 +38,11 @@ inline constexpr const char* kEstimate = "MFOT_ESTIMATE";          // tracker_es
 inline constexpr const char* kPoses = "MFOT_POSES";                // poses_t, merger -> controllers (and lockstep)
 inline constexpr const char* kSegmentation = "MFOT_SEGMENTATION";  // segmentation_t, merger -> anyone
 inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_t, trackers -> merger
+// A restarted merger asks a worker for the object it still holds (object_model_t without points,
+// merger -> trackers); the worker answers with that object's model and last pose (object_model_t,
+// tracker -> merger). See ObjectResumer.
+inline constexpr const char* kModelRequest = "MFOT_MODEL_REQUEST";
+inline constexpr const char* kModelReport = "MFOT_MODEL_REPORT";
 inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
 // The channel of the models for worker `worker_id` (>= 0).
 inline std::string model_channel(std::int32_t worker_id) { return kModelPrefix + std::to_string(worker_id); }

@@ -21,6 +21,7 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_assembler.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/object_resumer.hpp"
 #include "mfot/service/worker_pool.hpp"
 
 #include <chrono>
@@ -37,6 +38,8 @@ struct MergerCoreOptions {
   ObjectManagerOptions manager;
   WorkerPoolOptions workers;
   FrameAssemblerOptions frames;
+  // A restarted merger resumes the objects its workers still hold (ObjectResumer; listen 0 = off).
+  ObjectResumerOptions resume;
   // Each model goes out with the other objects' model points inside the object's box grown by
   // this (metres, [0, 1]; the trackers' hypothesis margin plus their claim radius); 0 = none
   // (tracker.exclude_claimed_radius 0).
@@ -72,6 +75,9 @@ class MergerSink {
   virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) = 0;
   // The frame's end, for every worker; the sink stamps its utime.
   virtual void send_frame_done(frame_done_t& message) = 0;
+  // Asks worker `worker_id`, process `worker_instance`, for the model of `object_id`, which it holds
+  // and this (restarted) merger does not know (ObjectResumer; MFOT_MODEL_REQUEST).
+  virtual void request_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t worker_instance) = 0;
   // A scene as received, for workers that lost it.
   virtual void resend_scene(std::span<const std::uint8_t> message) = 0;
   virtual void publish_frame(const FinishedFrame& frame) = 0;
@@ -94,6 +100,10 @@ class MergerCore {
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_estimate(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // MFOT_MODEL_REPORT: a worker's answer to request_model (ObjectResumer): taken when it answers a
+  // pending request with a valid model, the object then resumed under its id with its owner;
+  // anything else is counted as malformed and dropped.
+  void on_model_report(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
 
   // Steps 1-3; returns the number of frames finished.
   int step();
@@ -101,6 +111,7 @@ class MergerCore {
   const ObjectManager& manager() const { return manager_; }
   const WorkerPool& workers() const { return workers_; }
   std::size_t open_frames() const { return frames_.open_frames(); }
+  const ObjectResumer& resumer() const { return resumer_; }
 
  private:
   void assign_idle_workers(Clock::time_point now);
@@ -119,6 +130,7 @@ class MergerCore {
   ObjectManager manager_;
   WorkerPool workers_;
   FrameAssembler frames_;
+  ObjectResumer resumer_;
   MergerSink& sink_;
   MalformedCounter& malformed_;
   std::function<Clock::time_point()> clock_;

@@ -31,6 +31,7 @@ class LcmMergerLink : public MergerSink {
                   std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) override;
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) override;
   void send_frame_done(frame_done_t& message) override;
+  void request_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t worker_instance) override;
   void resend_scene(std::span<const std::uint8_t> message) override;
   void publish_frame(const FinishedFrame& frame) override;
   void note(const std::string& message) override { status_.set_message(message); }

@@ -37,6 +37,8 @@ struct MergerConfig {
   int worker_timeout_ms = 1000;
   int expected_workers = 0;
   int startup_timeout_ms = 10000;
+  int resume_listen_ms = 0;     // ObjectResumerOptions::listen (configs/default.yaml sets it)
+  int resume_timeout_ms = 500;  // ObjectResumerOptions::report_timeout
   bool write_labels = true;
   bool fitting_distance = true;
   Pose world_from_camera;

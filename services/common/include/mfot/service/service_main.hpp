@@ -10,6 +10,7 @@
 
 namespace mfot::service {
 
+// Sets the allocator's fixed thresholds first (bound_allocator_caches).
 inline constexpr int kExitConfigRefused = 2;
 inline constexpr int kExitOutputFailed = 3;
 
@@ -20,5 +21,10 @@ class OutputError : public std::runtime_error {
 };
 
 int run_service_main(const std::function<int()>& body);
+
+// Large blocks are mapped and returned to the system when freed, and the heap's free top is trimmed
+// beyond 1 MB (glibc mallopt; nothing elsewhere): resident memory follows what a service holds now,
+// not the most it ever held.
+void bound_allocator_caches();
 
 }  // namespace mfot::service

@@ -20,6 +20,7 @@
 
 #include "mfot/frame_done_t.hpp"
 #include "mfot/heartbeat_t.hpp"
+#include "mfot/object_model_t.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/object_tracker.hpp"
 #include "mfot/service/pipeline_config.hpp"
@@ -43,6 +44,9 @@ class TrackerSink {
   virtual ~TrackerSink() = default;
   virtual void publish_estimate(const tracker_estimate_t& estimate) = 0;
   virtual void publish_heartbeat(const heartbeat_t& heartbeat) = 0;
+  // The answer to a restarted merger's model request (MFOT_MODEL_REPORT): the object this worker
+  // holds, its model, version and last pose.
+  virtual void publish_model_report(const object_model_t& report) = 0;
   // Something a person watching the status should know.
   virtual void note(const std::string& message) = 0;
 };
@@ -67,6 +71,12 @@ class TrackerWorker {
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // MFOT_STATUS: the merger's status keeps its process the one models are taken from (SenderLock).
   void on_status(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // A restarted merger asks for the object this worker holds (MFOT_MODEL_REQUEST, an object_model_t
+  // naming worker_id, worker_instance and object_id, without points): when it names this worker,
+  // this process and the object it holds, the worker answers with a report (publish_model_report):
+  // object_id, version, frame_seq = the last frame it finished, its last pose and its model; any
+  // other request is ignored, a malformed one counted.
+  void on_model_request(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // Step 3; returns the frames tracked.
   int step();
 
@@ -87,6 +97,7 @@ class TrackerWorker {
   TrackerSceneQueue scenes_;
   std::vector<Eigen::Vector3f> claimed_;  // of the last model or frame_done_t entry taken
   SenderLock merger_;                     // the merger process models are taken from
+  Pose last_pose_;                        // the held object's last estimate (or its model's pose)
   Clock::time_point next_heartbeat_{};
   std::int64_t skipped_at_heartbeat_ = 0;
   std::int64_t reported_fallbacks_ = 0;

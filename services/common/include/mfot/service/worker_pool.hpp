@@ -103,6 +103,10 @@ class WorkerPool {
   std::vector<std::int32_t> expire(Clock::time_point now);
   // Step 3, over `object_ids` in order; returns the new assignments.
   std::vector<Assignment> assign(std::span<const std::int32_t> object_ids, Clock::time_point now);
+  // A restarted merger resumed `object_id`, which live idle worker `worker_id` still holds: it owns it
+  // again (no model goes out: the worker has it). False (nothing changed) when the worker is unknown,
+  // dead, owns something, or the object has an owner.
+  bool resume_owner(std::int32_t object_id, std::int32_t worker_id, Clock::time_point now);
   // Step 4: the object is gone; its owner (if any) becomes idle.
   void release(std::int32_t object_id, Clock::time_point now);
 
