@@ -400,7 +400,7 @@ TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
   // (LccpDiscoveryOnSensorViews).
   EXPECT_FLOAT_EQ(m.manager.discovery.seed_resolution, 0.02f);
   // The shipped colour cut: a synthetic pile's touching objects come apart (PileDiscovery).
-  EXPECT_FLOAT_EQ(m.manager.discovery.color_cut, 35.f);
+  EXPECT_FLOAT_EQ(m.manager.discovery.color_cut, 0.f);
   EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n")).manager.discovery.confirm_join);
   for (const std::string key : {"confirm_frames: -1", "confirm_votes: 0", "confirm_max_motion: 2", "confirm_join: 3", "color_cut: 201"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));

@@ -23,7 +23,6 @@ namespace {
 const std::set<std::string> kStructKeepsTheThesis = {
     "tracker.merger_timeout_ms",   // 0 in the struct: tests take models from any merger
     "merger.resume_listen_ms",     // 0 in the struct: tests finish frames without waiting for resumed objects
-    "merger.discovery.color_cut",  // 0 in the struct: convexity alone, as the discovery tests were written
     "preprocess.plane_margin_sigmas",
     "preprocess.table_prism",
     "preprocess.queue_frames",
