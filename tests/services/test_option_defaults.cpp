@@ -21,8 +21,8 @@ namespace {
 // then they are listed here, and the list may only shrink: a listed key whose struct default comes to
 // agree fails too (take it off the list).
 const std::set<std::string> kStructKeepsTheThesis = {
-    "tracker.merger_timeout_ms",   // 0 in the struct: tests take models from any merger
-    "merger.resume_listen_ms",     // 0 in the struct: tests finish frames without waiting for resumed objects
+    "tracker.merger_timeout_ms",  // 0 in the struct: tests take models from any merger
+    "merger.resume_listen_ms",    // 0 in the struct: tests finish frames without waiting for resumed objects
     "preprocess.plane_margin_sigmas",
     "preprocess.table_prism",
     "preprocess.queue_frames",
