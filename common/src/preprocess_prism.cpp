@@ -11,17 +11,12 @@ namespace {
 
 // Inliers the support polygon is built from: an even-stride sample of the cropped points.
 constexpr std::size_t kTableSamples = 4096;
-// The table is made of the 8-connected regions of inlier samples on a grid of this cell (metres)
-// that hold at least kTableRegionShare of the largest one's samples: where a wall or a post crosses
-// the plane's height its points are inliers too, but apart and few; a pile across the table cuts
-// the visible top into regions of like size, and the support polygon spans them all (so the pile
-// stands on it).
+// The table is the largest 8-connected region of inlier samples on a grid of this cell (metres):
+// where a wall or a post crosses the plane's height its points are inliers too, but apart.
 constexpr float kTableCell = 0.02f;
-constexpr float kTableRegionShare = 0.25f;
 
-// Keeps the samples of the 8-connected regions of occupied kTableCell cells that hold at least
-// kTableRegionShare of the largest region's samples.
-void keep_table_regions(std::vector<Eigen::Vector2f>& samples) {
+// Keeps the samples of the largest 8-connected region of occupied kTableCell cells.
+void keep_largest_region(std::vector<Eigen::Vector2f>& samples) {
   std::unordered_map<std::uint64_t, int> cell_of_key;
   std::vector<std::uint64_t> keys;
   std::vector<int> cell_of_sample(samples.size());
@@ -66,11 +61,10 @@ void keep_table_regions(std::vector<Eigen::Vector2f>& samples) {
     }
   }
   if (region_count.size() <= 1) return;
-  const int largest = *std::max_element(region_count.begin(), region_count.end());
+  const auto largest = static_cast<int>(std::max_element(region_count.begin(), region_count.end()) - region_count.begin());
   std::size_t kept = 0;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    const int count_of_region = region_count[static_cast<std::size_t>(region[static_cast<std::size_t>(cell_of_sample[i])])];
-    if (static_cast<float>(count_of_region) >= kTableRegionShare * static_cast<float>(largest)) samples[kept++] = samples[i];
+    if (region[static_cast<std::size_t>(cell_of_sample[i])] == largest) samples[kept++] = samples[i];
   }
   samples.resize(kept);
 }
@@ -128,7 +122,7 @@ void Preprocessor::keep_clusters_on_table() {
     const Eigen::Vector3f& p = cropped_positions_[i];
     if (std::abs(plane_.signed_distance(p)) < band) table_samples_.push_back(on_table_plane(p));
   }
-  keep_table_regions(table_samples_);
+  keep_largest_region(table_samples_);
   table_hull_ = convex_hull(table_samples_);
   if (table_hull_.size() < 3) return;
 

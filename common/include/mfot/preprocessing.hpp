@@ -18,14 +18,12 @@
 //      was sampled at, and holds back a box that starts to turn from there (docs/experiment-log.md:
 //      "A voxel grid that moves every frame");
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
-//      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by
-//      their first voxel (EuclideanClusterer's result, computed by a grid union-find, about 5x
-//      faster on 5 mm voxels);
+//      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by their first voxel (EuclideanClusterer's result, computed
+//      by a grid union-find, about 5x faster on 5 mm voxels);
 //   6. table prism (as PCL's ExtractPolygonalPrismData, own code because it runs per frame on the
-//      core's types): the convex hull of the plane's inliers (an even-stride sample; their
-//      connected regions on a 2 cm grid holding at least a quarter of the largest one's samples,
-//      as a wall's foot is an inlier too but few, while a pile across the table cuts its top into
-//      regions of like size) is the table's support polygon; a cluster with less than prism_min_share of its voxels above
+//      core's types): the convex hull of the plane's inliers (an even-stride sample; their largest
+//      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
+//      polygon; a cluster with less than prism_min_share of its voxels above
 //      it (a wall, shelves or people beside the table) is no cluster (-1): it never becomes an
 //      object. The margin of step 3 grows with depth as the sensor's noise does: at least
 //      plane_margin_sigmas x sigma(z), sigma(z) = base + quadratic (z - reference)^2 (Nguyen, Izadi,
