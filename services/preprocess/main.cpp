@@ -13,6 +13,7 @@
 #include "mfot/service/group_security.hpp"
 #include "mfot/service/config.hpp"
 #include "mfot/service/convert.hpp"
+#include "mfot/service/frame_gate.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/frame_codec.hpp"
@@ -67,20 +68,10 @@ class PreprocessService {
  private:
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
     if (!decode_message(rbuf, chan, spare_, status_.malformed())) return;
-    // Boundary checks (issue 55): plausible sizes, and a sequence that grows within one capture
-    // process (a new process, e.g. a restarted capture, may start again from 0).
-    if (auto why = implausible_frame_sizes(spare_)) {
-      status_.malformed().record(chan, "invalid frame", *why);
+    if (const auto refusal = gate_.admit(spare_)) {
+      status_.malformed().record(chan, refusal->kind, refusal->detail);
       return;
     }
-    if (spare_.seq < 0 || (spare_.envelope.sender == last_sender_ && spare_.seq <= last_seq_)) {
-      status_.malformed().record(chan, "frame seq not increasing",
-                                 "seq " + std::to_string(spare_.seq) + " after " + std::to_string(last_seq_) +
-                                     " from the same capture");
-      return;
-    }
-    last_sender_ = spare_.envelope.sender;
-    last_seq_ = spare_.seq;
     pending_.push_back(std::move(spare_));
     if (pending_.size() > queue_frames_) {
       pending_.pop_front();
@@ -118,8 +109,7 @@ class PreprocessService {
   std::deque<frame_t> pending_;  // in arrival order
   frame_t spare_;                // the next frame is decoded into this one
   std::int64_t dropped_ = 0;
-  std::int64_t last_sender_ = 0;  // envelope.sender of the last frame taken
-  std::int64_t last_seq_ = -1;    // and its seq
+  FrameGate gate_;               // sizes and sequence of each frame before it is queued
   scene_cloud_t out_{};
 };
 
