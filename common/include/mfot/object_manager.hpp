@@ -30,11 +30,6 @@
 
 namespace mfot {
 
-// The largest object id the manager gives or takes (resume_object, reserve_ids_through): ids are
-// int32 on the wire, and a million objects in one run is far beyond any scene; an id above it
-// received from outside is refused, so the id counter can never overflow.
-inline constexpr std::int32_t kMaxObjectId = 1'000'000;
-
 // Joining parts of one rigid object and splitting an object whose parts moved apart (step 7 of
 // ObjectManager). Member defaults: both off (the thesis has neither).
 struct JoinSplitOptions {

@@ -10,6 +10,11 @@
 
 namespace mfot {
 
+// The largest object id anything gives or takes (ObjectManager's ids, ids received on the wire): ids
+// are int32 on the wire, and a million objects in one run is far beyond any scene; an id above it
+// received from outside is refused, so no id counter can overflow.
+inline constexpr std::int32_t kMaxObjectId = 1'000'000;
+
 struct Rgb8 {
   std::uint8_t r = 0, g = 0, b = 0;
   friend bool operator==(const Rgb8&, const Rgb8&) = default;

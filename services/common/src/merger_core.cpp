@@ -125,13 +125,9 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
       send_model(correction.object_id, correction.worker_id, seq, msg.worker_id);
     } else if (!resumer_.pending(correction.object_id, now)) {  // else its report may resume it
       sink_.send_retirement(correction.object_id, seq, msg.worker_id);
-      // After a restart of this merger: controllers knew that id as another object. An id beyond
-      // kMaxObjectId was never given by a merger: it is counted, and reserves nothing.
-      if (!manager_.reserve_ids_through(correction.object_id)) {
-        malformed_.record(channel_name, "object id out of range",
-                          "heartbeat of worker " + std::to_string(msg.worker_id) + " holds object " +
-                              std::to_string(correction.object_id));
-      }
+      // After a restart of this merger: controllers knew that id as another object (in range: the
+      // heartbeat's ids were checked above).
+      manager_.reserve_ids_through(correction.object_id);
     }
   }
 }

@@ -2,6 +2,8 @@
 // LCM plumbing shared by every service: channel names, the transport URL, validated decoding,
 // signal handling and logging set-up.
 
+#include "mfot/types.hpp"
+
 #include <lcm/lcm-cpp.hpp>
 
 #include <cstdint>
@@ -49,9 +51,9 @@ inline std::string model_channel(std::int32_t worker_id) { return kModelPrefix +
 }  // namespace channel
 
 // Ranges of received ids (issue 55), checked where messages arrive so that no value can overflow a
-// counter: object ids received are 1..kMaxObjectId (a heartbeat or model naming another is dropped and
-// counted as malformed), worker ids 0..kMaxWorkerId (mfot-tracker --worker-id's range).
-inline constexpr std::int32_t kMaxObjectId = 1000000;
+// counter: object ids received are 1..kMaxObjectId (the core's, mfot/types.hpp; a heartbeat or model
+// naming another is dropped and counted as malformed), worker ids 0..kMaxWorkerId (mfot-tracker
+// --worker-id's range).
 inline constexpr std::int32_t kMaxWorkerId = 100000;
 
 // Lockstep sources (mfot-capture, also replaying a log) keep at most this many frames out whose poses have
