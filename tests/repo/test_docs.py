@@ -81,7 +81,7 @@ class DocsTest(unittest.TestCase):
             with self.subTest(entry=entry.get("id")):
                 for key in ["id", "name", "command", "date", "machine", "unit"]:
                     self.assertIn(key, entry)
-                self.assertTrue(any(k in entry for k in ["table", "text", "values"]), "an entry without figures")
+                self.assertTrue(any(k in entry for k in ["table", "text", "values", "output"]), "an entry without figures")
                 for machine in entry["machine"] or []:
                     self.assertIn(machine, results["machines"])
         consts = [floor["const"] for floor in results["ci_floors"]]
@@ -105,6 +105,60 @@ class DocsTest(unittest.TestCase):
         for eq, where in sorted(cited.items()):
             with self.subTest(equation=eq):
                 self.assertIn(f"({eq})", method, f"{where} cites ({eq}), which docs/method.md does not restate")
+
+
+class RecordTest(unittest.TestCase):
+    """scripts/gen-results --record: a benchmark's stdout becomes an entry, with its command, date, machine and commit."""
+
+    def setUp(self):
+        import tempfile
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        self.json = Path(self.tmp.name) / "results.json"
+        self.md = Path(self.tmp.name) / "results.md"
+        self.json.write_text((DOCS / "results" / "results.json").read_text(encoding="utf-8"), encoding="utf-8")
+
+    def gen(self, *args, command=()):
+        return subprocess.run([sys.executable, str(REPO / "scripts" / "gen-results"), "--json", str(self.json),
+                               "--md", str(self.md), *args, *(["--", *command] if command else [])],
+                              capture_output=True, text=True)
+
+    def record(self, table_row, exit_status=0):
+        script = f"print('| seeds | share |'); print('|---|---:|'); print('{table_row}'); raise SystemExit({exit_status})"
+        return self.gen("--record", "test-entry", "--name", "A test benchmark", "--group", "accuracy", "--machine",
+                        "dev", command=[sys.executable, "-c", script])
+
+    def test_output_is_recorded_and_rendered(self):
+        proc = self.record("| 1-5 | 80 % |")
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        entries = [e for e in json.loads(self.json.read_text(encoding="utf-8"))["entries"] if e["id"] == "test-entry"]
+        self.assertEqual(len(entries), 1)
+        self.assertIn("| 1-5 | 80 % |", entries[0]["output"])
+        self.assertEqual(entries[0]["machine"], ["dev"])
+        self.assertRegex(entries[0]["commit"], r"^[0-9a-f]{12}(-dirty)?$")
+        self.assertRegex(entries[0]["date"], r"^\d{4}-\d{2}-\d{2}$")
+        self.assertIn("| 1-5 | 80 % |", self.md.read_text(encoding="utf-8"))
+
+    def test_a_second_record_replaces_the_entry_and_keeps_the_exit_status(self):
+        self.record("| 1-5 | 80 % |")
+        proc = self.record("| 1-5 | 90 % |", exit_status=1)
+        self.assertEqual(proc.returncode, 1)
+        entries = [e for e in json.loads(self.json.read_text(encoding="utf-8"))["entries"] if e["id"] == "test-entry"]
+        self.assertEqual(len(entries), 1)
+        self.assertNotIn("80 %", entries[0]["output"])
+        self.assertEqual(entries[0]["exit_status"], 1)
+        self.assertIn("exit status 1", self.md.read_text(encoding="utf-8"))
+
+    def test_an_unknown_group_or_machine_is_refused_by_name(self):
+        before = self.json.read_text(encoding="utf-8")
+        proc = self.gen("--record", "x", "--name", "x", "--group", "nonsense", "--machine", "dev",
+                        command=[sys.executable, "-c", "print(1)"])
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("nonsense", proc.stderr)
+        proc = self.gen("--record", "x", "--name", "x", "--group", "accuracy", "--machine", "toaster",
+                        command=[sys.executable, "-c", "print(1)"])
+        self.assertIn("toaster", proc.stderr)
+        self.assertEqual(self.json.read_text(encoding="utf-8"), before)
 
 
 if __name__ == "__main__":
