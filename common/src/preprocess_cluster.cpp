@@ -1,18 +1,24 @@
 // Step 5 of Preprocessor: Euclidean clustering of the voxels. Same result as EuclideanClusterer
 // (connected components of "distance <= tolerance", numbered by their lowest point index, at
-// least cluster_min_size points), computed for speed as a union-find over a grid of tolerance-sized cells: each pair of
-// points in the same or adjacent cells is tested once (13 forward neighbour cells), on
-// cell-contiguous copies of the positions, instead of one sorted radius search per point.
+// least cluster_min_size points), computed for speed as a union-find over a grid of cells whose
+// diagonal is just under the tolerance (side tolerance / sqrt(3), less a margin of kCellMargin
+// that covers float rounding), instead of one sorted radius search per point:
+//  1. every point of a cell is within the tolerance of every other: a cell is one component;
+//  2. two cells can hold a close pair only when no coordinate differs by more than 2 cells (the
+//     62 forward neighbour offsets): for each such pair of non-empty cells not yet in one
+//     component, pairs of their points are tested until the first one within the tolerance.
+// The components (the transitive closure of "within the tolerance") are the same as testing every
+// pair; only pairs whose test could not change them are skipped.
 // With threads, the cells' neighbour tests run in parallel on a concurrent union-find (links
 // always hang the higher root under the lower one, by compare-and-swap): whatever the order of
 // the unions, every component ends with its lowest point as root, so labels are the same.
-
-#include "mfot/preprocessing.hpp"
 
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
+
+#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 
@@ -37,21 +43,28 @@ std::size_t cell_hash(std::uint64_t key) {
   return static_cast<std::size_t>(h);
 }
 
-// The 13 neighbour offsets lexicographically after (0, 0, 0): with the cell itself they cover
-// every unordered pair of adjacent cells once.
-constexpr std::array<std::array<int, 3>, 13> kForwardOffsets = {{{1, -1, -1},
-                                                                 {1, -1, 0},
-                                                                 {1, -1, 1},
-                                                                 {1, 0, -1},
-                                                                 {1, 0, 0},
-                                                                 {1, 0, 1},
-                                                                 {1, 1, -1},
-                                                                 {1, 1, 0},
-                                                                 {1, 1, 1},
-                                                                 {0, 1, -1},
-                                                                 {0, 1, 0},
-                                                                 {0, 1, 1},
-                                                                 {0, 0, 1}}};
+// Cells are this much smaller than tolerance / sqrt(3): two points of one cell are then closer
+// than the tolerance also after float rounding of their cell coordinates and of the distance test.
+constexpr float kCellMargin = 1e-4f;
+
+// The offsets in [-2, 2]^3 lexicographically after (0, 0, 0): with the cell itself they cover every
+// unordered pair of cells that may hold two points within the tolerance (cells 3 apart along an axis
+// are at least 2 sides = 1.15 tolerances apart) once.
+constexpr int kNeighbourReach = 2;
+constexpr std::size_t kForwardNeighbours = 62;  // ((2 * 2 + 1)^3 - 1) / 2
+constexpr std::array<std::array<int, 3>, kForwardNeighbours> forward_offsets() {
+  std::array<std::array<int, 3>, kForwardNeighbours> out{};
+  std::size_t k = 0;
+  for (int x = -kNeighbourReach; x <= kNeighbourReach; ++x) {
+    for (int y = -kNeighbourReach; y <= kNeighbourReach; ++y) {
+      for (int z = -kNeighbourReach; z <= kNeighbourReach; ++z) {
+        if (x > 0 || (x == 0 && (y > 0 || (y == 0 && z > 0)))) out[k++] = {x, y, z};
+      }
+    }
+  }
+  return out;
+}
+constexpr std::array<std::array<int, 3>, kForwardNeighbours> kForwardOffsets = forward_offsets();
 
 // Union-find on a plain array through std::atomic_ref, so the neighbour tests of different cells
 // may run on different threads. A parent never has a higher index than its child, and a node that
@@ -112,7 +125,7 @@ void Preprocessor::cluster_voxels() {
   cell_start_.clear();
   point_cell_.resize(n);
   point_cell_coords_.resize(n);
-  const float inv_cell = 1.f / options_.cluster_tolerance;
+  const float inv_cell = std::sqrt(3.f) / (options_.cluster_tolerance * (1.f - kCellMargin));
   split_evenly(n, kMinPreprocessPointsPerPiece);
   pool_.run(pieces_.size(), [this, inv_cell](std::size_t p) {
     for (std::size_t i = pieces_[p].begin; i < pieces_[p].end; ++i) {
@@ -160,27 +173,35 @@ void Preprocessor::cluster_voxels() {
   union_parent_.resize(n);
   for (std::size_t i = 0; i < n; ++i) union_parent_[i] = static_cast<int>(i);
   const float tolerance2 = options_.cluster_tolerance * options_.cluster_tolerance;
-  auto link_ranges = [&](int a_begin, int a_end, int b_begin, int b_end, bool same_cell) {
+  // Step 2 for cells a and b: true once a pair of their points within the tolerance is united.
+  const auto link_first_pair = [&](int a_begin, int a_end, int b_begin, int b_end) {
     for (int a = a_begin; a < a_end; ++a) {
       const Eigen::Vector3f pa = sorted_positions_[static_cast<std::size_t>(a)];
-      for (int b = same_cell ? a + 1 : b_begin; b < b_end; ++b) {
+      for (int b = b_begin; b < b_end; ++b) {
         if ((sorted_positions_[static_cast<std::size_t>(b)] - pa).squaredNorm() <= tolerance2) {
           unite(union_parent_, sorted_to_point_[static_cast<std::size_t>(a)],
                 sorted_to_point_[static_cast<std::size_t>(b)]);
+          return;
         }
       }
     }
   };
-  const auto link_cells = [this, &link_ranges](std::size_t first, std::size_t last) {
+  const auto link_cells = [this, &link_first_pair](std::size_t first, std::size_t last) {
     for (std::size_t c = first; c < last; ++c) {
       const int begin = cell_start_[c];
       const int end = cell_start_[c + 1];
-      link_ranges(begin, end, begin, end, true);
+      const int head = sorted_to_point_[static_cast<std::size_t>(begin)];
+      for (int a = begin + 1; a < end; ++a) unite(union_parent_, head, sorted_to_point_[static_cast<std::size_t>(a)]);
       for (const auto& offset : kForwardOffsets) {
         const int neighbour = find_cluster_cell(cell_coords_[c] + Eigen::Vector3i(offset[0], offset[1], offset[2]));
         if (neighbour < 0) continue;
-        link_ranges(begin, end, cell_start_[static_cast<std::size_t>(neighbour)],
-                    cell_start_[static_cast<std::size_t>(neighbour) + 1], false);
+        const int n_begin = cell_start_[static_cast<std::size_t>(neighbour)];
+        // Already one component (a stale answer on another thread only costs the tests below).
+        if (find_root(union_parent_, head) ==
+            find_root(union_parent_, sorted_to_point_[static_cast<std::size_t>(n_begin)])) {
+          continue;
+        }
+        link_first_pair(begin, end, n_begin, cell_start_[static_cast<std::size_t>(neighbour) + 1]);
       }
     }
   };

@@ -412,19 +412,24 @@ TEST(Preprocessor, ClustersMatchEuclideanClusterer) {
   Camera camera;
   camera.depth_noise_mm = 3.f;
   const Frame frame = test_scene::render(scene, camera);
-  for (const float tolerance : {0.006f, 0.015f, 0.03f}) {
+  // 5, 7.07 and 8.66 mm: the 5 mm voxels' spacing along an axis, a face and a cube diagonal, where
+  // many pairs lie at the tolerance; threads: the concurrent union-find.
+  for (const float tolerance : {0.005f, 0.00707f, 0.00866f, 0.006f, 0.015f, 0.03f}) {
     for (const int min_size : {1, 30}) {
-      PreprocessorOptions options;
-      options.cluster_tolerance = tolerance;
-      options.cluster_min_size = min_size;
-      Preprocessor preprocessor(options);
-      const SceneCloud& cloud = preprocessor.process(frame.view());
-      EuclideanClusterer reference(EuclideanClusterOptions{tolerance, static_cast<std::size_t>(min_size)});
-      ClusterSet expected;
-      reference.cluster(cloud.positions, expected);
-      ASSERT_EQ(cloud.num_clusters, static_cast<int>(expected.size())) << "tolerance " << tolerance;
-      EXPECT_EQ(cloud.cluster, std::vector<int>(expected.cluster_of_point.begin(), expected.cluster_of_point.end()))
-          << "tolerance " << tolerance << " min size " << min_size;
+      for (const int threads : {1, 4}) {
+        PreprocessorOptions options;
+        options.cluster_tolerance = tolerance;
+        options.cluster_min_size = min_size;
+        options.threads = threads;
+        Preprocessor preprocessor(options);
+        const SceneCloud& cloud = preprocessor.process(frame.view());
+        EuclideanClusterer reference(EuclideanClusterOptions{tolerance, static_cast<std::size_t>(min_size)});
+        ClusterSet expected;
+        reference.cluster(cloud.positions, expected);
+        ASSERT_EQ(cloud.num_clusters, static_cast<int>(expected.size())) << "tolerance " << tolerance;
+        EXPECT_EQ(cloud.cluster, std::vector<int>(expected.cluster_of_point.begin(), expected.cluster_of_point.end()))
+            << "tolerance " << tolerance << " min size " << min_size << " threads " << threads;
+      }
     }
   }
 }
