@@ -143,6 +143,22 @@ TEST(LccpDiscovery, PiecesBelowTheMinimumJoinTheirNeighbour) {
   EXPECT_EQ(make_object_discovery(small)->split(view.positions, view.colors, part), 2);
 }
 
+TEST(LccpDiscovery, ABottlesNeckStaysPartOfItsBody) {
+  // A bottle as boxes: an 8 x 8 x 14 cm body with a 3 x 3 x 6 cm neck on its top (about 180 points seen):
+  // concave where they meet, like a box standing on another, but too small a part to be an object.
+  View view;
+  const Eigen::Vector3f lo{-0.04f, -0.04f, 0.f}, hi{0.04f, 0.04f, 0.14f};
+  const Eigen::Vector3f neck_lo{-0.015f, -0.015f, 0.14f}, neck_hi{0.015f, 0.015f, 0.20f};
+  add_box(view, 0, lo, hi, {{neck_lo, neck_hi}});
+  add_box(view, 1, neck_lo, neck_hi, {{lo, hi}});
+  ASSERT_LT(std::count(view.box.begin(), view.box.end(), 1), 250);
+  std::vector<int> part;
+  EXPECT_EQ(make_object_discovery(lccp_options())->split(view.positions, view.colors, part), 1);
+  DiscoveryOptions small = lccp_options();
+  small.min_part_points = 150;  // the neck alone is a part: LCCP cuts at the concave shoulder
+  EXPECT_EQ(make_object_discovery(small)->split(view.positions, view.colors, part), 2);
+}
+
 TEST(LccpDiscovery, SameInputSameParts) {
   View view;
   add_box(view, 0, {-0.1f, -0.05f, 0.f}, {0.f, 0.05f, 0.12f}, {});

@@ -43,8 +43,10 @@ struct DiscoveryOptions {
   // by colour. [0, 200]; 0 = off (convexity alone).
   float color_cut = 0.f;
   // Parts with fewer points than this are no objects: their points join the neighbouring larger
-  // part they touch (a label on a can, a handle seen edge-on), >= 1.
-  int min_part_points = 150;
+  // part they touch (a label on a can, a handle seen edge-on, a bottle's neck and cap), >= 1. At
+  // the scene's 5 mm voxels 400 points are 100 cm2 of seen surface: a neck 2-4 cm across shows
+  // 160-260, a box that stands on or beside another one 500 and more.
+  int min_part_points = 400;
   // Discovery confirmed over the first frames: in each of the confirm_frames frames after their
   // birth the discovery splits the segmented points of the objects born from one cluster again,
   // together, and once its parts disagreed with those objects in confirm_votes of those frames,
