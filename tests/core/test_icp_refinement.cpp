@@ -1,12 +1,15 @@
 #include "mfot/icp_refinement.hpp"
 #include "mfot/particle_filter.hpp"
+#include "mfot/smr_feature.hpp"
 #include "expect_invalid_argument.hpp"
 #include "synthetic_object.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -259,6 +262,74 @@ TEST(IcpRefinement, TheUnexplainedShareGrowsWithTheMisplacement) {
   EXPECT_THROW(icp.unexplained(scene.positions, model.positions, truth, 2), std::invalid_argument);
 }
 
+// A can: the side of a cylinder (radius 4 cm, height 12 cm, points about 5 mm apart) in eight red and blue
+// stripes around its axis (z), in the object frame; phase shifts the sample (0.5: between the model's points).
+ColoredCloud striped_can(float phase) {
+  constexpr float kRadius = 0.04f, kHeight = 0.12f, kSpacing = 0.005f;
+  const int around = static_cast<int>(std::round(2.f * std::numbers::pi_v<float> * kRadius / kSpacing));
+  ColoredCloud can;
+  for (int a = 0; a < around; ++a) {
+    const float angle = 2.f * std::numbers::pi_v<float> * (static_cast<float>(a) + phase) / static_cast<float>(around);
+    const int stripe = static_cast<int>(std::floor(angle / (2.f * std::numbers::pi_v<float>)*8.f));
+    for (float z = -0.5f * kHeight + phase * kSpacing; z <= 0.5f * kHeight; z += kSpacing) {
+      can.push_back(Eigen::Vector3f(kRadius * std::cos(angle), kRadius * std::sin(angle), z),
+                    stripe % 2 == 0 ? test::kRed : test::kBlue);
+    }
+  }
+  return can;
+}
+
+TEST(IcpRefinement, ColourPairsSeeATurnAboutTheSymmetryAxisThatGeometryCannot) {
+  const ColoredCloud model = striped_can(0.f);
+  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
+  // Seen from the camera 0.9 m away, its axis tilted 30 degrees from the image's vertical: the near half of
+  // the side, sampled between the model's points.
+  const Pose truth = test::make_pose(Eigen::Vector3f(0.02f, 0.f, 0.9f), Eigen::Vector3f::UnitX(), test::radians(-60.f));
+  ColoredCloud scene;
+  const ColoredCloud sampled = striped_can(0.5f);
+  for (std::size_t i = 0; i < sampled.size(); ++i) {
+    const Eigen::Vector3f p = truth.isometry() * sampled.positions[i];
+    const Eigen::Vector3f normal =
+        truth.rotation * Eigen::Vector3f(sampled.positions[i].x(), sampled.positions[i].y(), 0.f);
+    if (normal.dot(p) < 0.f) scene.push_back(p, sampled.colors[i]);  // facing the camera at the origin
+  }
+  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+  // The filter's estimate lags the can's turn about its own axis by 8 degrees (5.6 mm of arc).
+  Pose start = truth;
+  start.rotation =
+      (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(8.f), Eigen::Vector3f::UnitZ())))
+          .normalized();
+  IcpRefinementOptions options = iterations(10);
+  IcpRefinement geometric(options);
+  const IcpResult shape_only = geometric.refine(scene.positions, model.positions, start);
+  options.color_weight = 1.f;
+  IcpRefinement colored(options);
+  const IcpResult with_colour = colored.refine(scene.positions, scene_features, model.positions, model_features, start);
+  const float shape_error = test::degrees(test::rotation_error(shape_only.pose, truth));
+  const float colour_error = test::degrees(test::rotation_error(with_colour.pose, truth));
+  std::printf("turned 8 deg about the axis: geometry %.2f deg, colour and geometry %.2f deg\n", shape_error,
+              colour_error);
+  // The shape cannot show the turn: the nearest points leave it (whether refined or not).
+  EXPECT_GT(shape_error, 6.f);
+  ASSERT_TRUE(with_colour.refined);
+  EXPECT_LT(colour_error, 1.5f);
+  EXPECT_LT(test::translation_error(with_colour.pose, truth), 0.002f);
+  // Without the scene's features (or with color_weight 0) it is the geometric refinement, pose for pose.
+  const IcpResult no_features = colored.refine(scene.positions, {}, model.positions, model_features, start);
+  EXPECT_EQ(no_features.pose.rotation.coeffs(), shape_only.pose.rotation.coeffs());
+  // The colour charge tells the turned pose from the truth; the shape's does not.
+  const float turned_charge =
+      colored.unexplained(scene.positions, scene_features, model.positions, model_features, start, 2000);
+  const float true_charge =
+      colored.unexplained(scene.positions, scene_features, model.positions, model_features, truth, 2000);
+  EXPECT_GT(turned_charge, true_charge + 0.1f);
+  EXPECT_NEAR(geometric.unexplained(scene.positions, model.positions, start, 2000),
+              geometric.unexplained(scene.positions, model.positions, truth, 2000), 0.02f);
+  // A feature span of another size than its points is refused.
+  EXPECT_THROW(colored.refine(scene.positions, model_features, model.positions, model_features, start),
+               std::invalid_argument);
+}
+
 TEST(IcpRefinement, InvalidOptionsThrow) {
   const auto bad = [](auto mutate) {
     IcpRefinementOptions o;
@@ -280,6 +351,8 @@ TEST(IcpRefinement, InvalidOptionsThrow) {
   bad([](IcpRefinementOptions& o) { o.final_iterations = -1; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 0.9f; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 1001.f; });
+  bad([](IcpRefinementOptions& o) { o.color_weight = -0.1f; });
+  bad([](IcpRefinementOptions& o) { o.color_weight = 10.5f; });
   IcpRefinementOptions too_far;
   too_far.max_distance = 0.5f;
   test::expect_invalid_argument([&] { too_far.validate("tracker"); }, "tracker.max_distance");
