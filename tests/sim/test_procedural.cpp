@@ -172,9 +172,13 @@ TEST(Procedural, OnlyPlainCansAndBottlesKeepTheirSymmetryAxis) {
       const bool expect_axis = turned_shape && o.texture == "plain";
       EXPECT_EQ(!body.symmetry_axis.isZero(), expect_axis)
           << "seed " << seed << " id " << o.id << " " << o.shape << " " << o.texture;
-      if (expect_axis) EXPECT_TRUE(body.symmetry_axis.isApprox(Eigen::Vector3f::UnitZ()));
+      if (expect_axis) {
+        EXPECT_TRUE(body.symmetry_axis.isApprox(Eigen::Vector3f::UnitZ()));
+      }
       for (const GroundTruthPose& p : sim.poses(0)) {
-        if (p.id == o.id) EXPECT_EQ(p.symmetry_axis, body.symmetry_axis);
+        if (p.id == o.id) {
+          EXPECT_EQ(p.symmetry_axis, body.symmetry_axis);
+        }
       }
       if (turned_shape) seen[o.texture == "plain" ? "plain" : "textured"] += 1;
     }
