@@ -155,8 +155,17 @@ int IcpRefinement::pair(const Eigen::Vector3f& local, std::span<const Eigen::Vec
 }
 
 int IcpRefinement::pair_colored(const Eigen::Vector3f& local, const std::array<float, kSmrBins>& color,
-                                std::span<const Eigen::Vector3f> model, float& cost) {
+                                std::span<const Eigen::Vector3f> model, bool use_last, PairBound& bound, float& cost) {
   const float scale = options_.color_weight * options_.max_distance;
+  const int nearest = pair(local, model, use_last ? bound.nearest : -1, bound);
+  bound.nearest = nearest;
+  if (nearest < 0) return -1;  // no model point within max_distance
+  // Every other model point lies at least others away, so costs at least others^2: where the nearest point's cost
+  // is no more, it is the least (most points, those inside a patch of one colour, end here).
+  const auto n = static_cast<std::size_t>(nearest);
+  cost = (model[n] - local).squaredNorm() + scale * scale * color_difference(color, model_colors_[n]);
+  const float others = bound.others - (local - bound.query).norm();
+  if (others > 0.f && cost <= others * others) return nearest;
   candidates_.clear();
   model_hash_.radius_search(local, options_.max_distance, candidates_);
   int best = -1;
@@ -209,8 +218,9 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
       const Eigen::Vector3f& p = sample[i];
       const Eigen::Vector3f local = to_object * p;
       float cost = 0.f;
-      const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, cost)
-                                   : pair(local, model, iteration > 0 ? previous_nearest_[i] : -1, bounds_[i]);
+      const int last = iteration > 0 ? previous_nearest_[i] : -1;
+      const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, iteration > 0, bounds_[i], cost)
+                                   : pair(local, model, last, bounds_[i]);
       nearest_.push_back(nearest);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
@@ -250,10 +260,11 @@ float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::sp
   const Eigen::Isometry3f to_object = pose.isometry().inverse();
   const float cap = options_.max_distance * options_.max_distance;
   double sum = 0.0;
+  PairBound bound;
   for (std::size_t i = 0; i < sample_.size(); ++i) {
     float cost = 0.f;
     const Eigen::Vector3f local = to_object * sample_[i];
-    const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, cost)
+    const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, false, bound, cost)
                                  : model_hash_.nearest(local, options_.max_distance, &cost);
     sum += nearest >= 0 ? std::min(cost / cap, 1.f) : 1.f;
   }

@@ -128,10 +128,6 @@ class IcpRefinement {
                   std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features);
   // An even sample of scene (at most max_points) into sample_, with its points' colours when colored_.
   void sample(std::span<const Eigen::Vector3f> scene, int max_points);
-  // The model point of least colour-and-space cost within max_distance of local, whose colour is color (-1: none);
-  // cost gets that cost, square metres.
-  int pair_colored(const Eigen::Vector3f& local, const std::array<float, kSmrBins>& color,
-                   std::span<const Eigen::Vector3f> model, float& cost);
   // Runs up to count iterations on one sample (steps 2-3), moving pose; false when too few of it paired.
   bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
                Eigen::Isometry3f& pose, IcpResult& result);
@@ -151,12 +147,19 @@ class IcpRefinement {
     Eigen::Vector3f query = Eigen::Vector3f::Zero();
     float distance = 0.f;
     float others = 0.f;
+    int nearest = -1;  // the nearest model point of the query (pair_colored's: its pair may be another)
   };
   std::vector<PairBound> bounds_;  // per sample point
   // The nearest model point within max_distance of local (-1: none), as SpatialHash::nearest would give:
   // last_nearest when bound proves it still is, otherwise by a new query that renews bound.
   int pair(const Eigen::Vector3f& local, std::span<const Eigen::Vector3f> model, int last_nearest,
            PairBound& bound) const;
+  // The model point of least colour-and-space cost within max_distance of local, whose colour is color (-1: none);
+  // cost gets that cost, square metres. The nearest point (pair(): its last_nearest is bound.nearest, with
+  // use_last) is the answer without a radius search where its cost is at most the squared distance every other
+  // point provably keeps.
+  int pair_colored(const Eigen::Vector3f& local, const std::array<float, kSmrBins>& color,
+                   std::span<const Eigen::Vector3f> model, bool use_last, PairBound& bound, float& cost);
   // Step 1's anchors: the first view, indexed (empty: none yet); each model point's weight (empty: all alike).
   void weigh_anchors();
   SpatialHash first_view_hash_;
