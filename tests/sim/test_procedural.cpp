@@ -160,6 +160,33 @@ TEST(Procedural, EveryMotionMoverShapeAndTextureAppearsInSeedsOneToSixty) {
   EXPECT_GT(counts["mover gripper"], 60 / 4);
 }
 
+// A can or bottle carries its symmetry axis (for the evaluator's axis-only rotation) only when plain: its
+// stripes, label or checker show its turns about the axis, so the ground truth asks for its full rotation.
+TEST(Procedural, OnlyPlainCansAndBottlesKeepTheirSymmetryAxis) {
+  std::map<std::string, int> seen;
+  for (std::uint64_t seed = 1; seed <= 60; ++seed) {
+    const Simulator sim(procedural(seed, false));
+    for (const SceneSummary::Object& o : sim.summary().objects) {
+      const BodyInfo& body = sim.bodies()[static_cast<std::size_t>(index_of(sim, o.id))];
+      const bool turned_shape = o.shape == "can" || o.shape == "bottle";
+      const bool expect_axis = turned_shape && o.texture == "plain";
+      EXPECT_EQ(!body.symmetry_axis.isZero(), expect_axis)
+          << "seed " << seed << " id " << o.id << " " << o.shape << " " << o.texture;
+      if (expect_axis) {
+        EXPECT_TRUE(body.symmetry_axis.isApprox(Eigen::Vector3f::UnitZ()));
+      }
+      for (const GroundTruthPose& p : sim.poses(0)) {
+        if (p.id == o.id) {
+          EXPECT_EQ(p.symmetry_axis, body.symmetry_axis);
+        }
+      }
+      if (turned_shape) seen[o.texture == "plain" ? "plain" : "textured"] += 1;
+    }
+  }
+  EXPECT_GT(seen["plain"], 0);
+  EXPECT_GT(seen["textured"], 0);
+}
+
 // Objects stay on or above the table, never overlap, are each seen in some frame, and the labels
 // of the rendered pixels lie on the surfaces of the bodies that ground truth poses there; the
 // camera looks at the table from a varying height.

@@ -176,7 +176,8 @@ struct TrackingStepResult {
 //  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
 //     and no other object's model is near; with the companion's motion when one was set);
 //  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points (pairing within
-//      isolated_icp_max_distance where the object is isolated and that is set);
+//      isolated_icp_max_distance where the object is isolated and that is set; in colour and space with
+//      icp.color_weight, the points' SMR features against the model's, here and in 5c-5d);
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
 //  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is

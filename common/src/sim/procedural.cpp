@@ -29,6 +29,8 @@
 //     nearer table side, comes in high over every object and down onto the grasp, and leaves the
 //     same way; the table under it while it holds is kept free of other objects.
 //  7. Summary: motion class, mover, objects' shapes and textures, spin axis and camera (scene.yaml).
+// A can or bottle carries its symmetry axis (BodyInfo, the ground truth's axis columns) only when plain: a
+// texture that varies around it (stripes, label, checker) makes its turn about the axis observable.
 
 #include <algorithm>
 #include <cmath>
@@ -236,10 +238,14 @@ struct Generator {
   Shape any_shape() { return static_cast<Shape>(draw.index(4)); }
   Texture any_texture() { return static_cast<Texture>(draw.index(4)); }
 
+  // The body keeps its symmetry axis only when plain: stripes, a label or a checker on a can show its turns
+  // about the axis, so the ground truth (and the evaluator) asks for its full rotation.
   int add_object(const BodyInfo& info, Shape shape, Texture texture, const Iso& pose, bool moved) {
     summary.objects.push_back(
         {info.id, kShapeNames[static_cast<int>(shape)], kTextureNames[static_cast<int>(texture)], moved});
-    return builder.add_body(info, pose);
+    BodyInfo body = info;
+    if (texture != Texture::plain) body.symmetry_axis = Eigen::Vector3f::Zero();
+    return builder.add_body(body, pose);
   }
 
   // Sweeps circles of radius r along the straight path a -> b (every centimetre) into taken.

@@ -137,6 +137,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.icp.final_iterations = read_option<int>(s, "icp_final_iterations");
   c.step.icp.final_points = read_option<int>(s, "icp_final_points");
   c.step.icp.anchor_weight = read_option<float>(s, "icp_anchor_weight");
+  c.step.icp.color_weight = read_option<float>(s, "icp_color_weight");
   c.step.last_pose_check_occluded_share = read_last_pose_check_share(s);
   c.step.last_pose_check_points = read_option<int>(s, "last_pose_check_points");
   c.step.last_pose_check_margin = read_option<float>(s, "last_pose_check_margin");

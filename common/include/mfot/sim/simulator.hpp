@@ -62,9 +62,9 @@ struct BodyInfo {
   int id = 0;  // label value: objects 1.., hands 101, 102
   bool is_hand = false;
   std::vector<Primitive> primitives;  // poses relative to the body frame, labels = id
-  // A shape symmetric about this body-frame axis (a can's): rotation about it shows only through
-  // texture, so the evaluator reports the error of the observable rotation beside the full one.
-  // Zero: no symmetry axis.
+  // A body that looks the same turned about this body-frame axis (a plain can's: shape and texture
+  // symmetric): rotation about it does not show, so the evaluator reports the error of the observable
+  // rotation beside the full one. Zero: no symmetry axis (a can whose texture varies around it has none).
   Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();
 };
 
