@@ -93,7 +93,7 @@ class LccpDiscovery final : public ObjectDiscovery {
     lccp.setSanityCheck(options_.sanity_criterion);
     lccp.setSmoothnessCheck(options_.smoothness_threshold > 0.f, options_.voxel_resolution, options_.seed_resolution,
                             options_.smoothness_threshold);
-    lccp.setKFactor(options_.extended_convexity ? 1u : 0u);
+    lccp.setKFactor(0u);  // no extended convexity (PCL's example): it splits boxes' faces apart
     lccp.setMinSegmentSize(0);
     lccp.setInputSupervoxels(clusters, adjacency);
     lccp.segment();

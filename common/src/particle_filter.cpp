@@ -31,10 +31,6 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "lambda must be in (0, 1000], got " + std::to_string(o.lambda));
   require(o.resampling == ResamplingScheme::kMultinomial || o.resampling == ResamplingScheme::kSystematic,
           "resampling must be kMultinomial or kSystematic");
-  require(o.anneal_iterations >= 1 && o.anneal_iterations <= 10,
-          "anneal_iterations must be in [1, 10], got " + std::to_string(o.anneal_iterations));
-  require(o.anneal_shrink > 0.f && o.anneal_shrink <= 1.f,
-          "anneal_shrink must be in (0, 1], got " + std::to_string(o.anneal_shrink));
   o.step_motion().validate("ParticleFilterOptions");
   require(o.follow_replaced_estimate >= 0.f && o.follow_replaced_estimate <= 1.f,
           "follow_replaced_estimate must be in [0, 1], got " + std::to_string(o.follow_replaced_estimate));
@@ -196,14 +192,6 @@ void ParticleFilter::resample() {
   std::fill(weights_.begin(), weights_.end(), 1.f / static_cast<float>(n));
 }
 
-void ParticleFilter::diffuse(float scale) {
-  for (Pose& particle : particles_) {
-    PoseVector noise;
-    for (int k = 0; k < 6; ++k) noise[k] = scale * options_.init_sigma[k] * standard_normal();
-    particle = apply_increment(particle, noise);
-  }
-}
-
 void ParticleFilter::diffuse_and_predict(float predicted_fraction, const PoseVector* companion) {
   const float sqrt_a = std::sqrt(options_.a);
   const float sqrt_b = std::sqrt(options_.b);
@@ -252,14 +240,6 @@ const Pose& ParticleFilter::step(const HypothesisData& data, Likelihood& likelih
   }
   likelihood.evaluate(particles_, data, scores_);
   likelihood_weights(scores_, options_.lambda, weights_);
-  float scale = 1.f;
-  for (int k = 1; k < options_.anneal_iterations; ++k) {
-    scale *= options_.anneal_shrink;
-    resample();
-    diffuse(scale);
-    likelihood.evaluate(particles_, data, scores_);
-    likelihood_weights(scores_, options_.lambda, weights_);
-  }
   previous_estimate_ = estimate_;
   estimate_ = weighted_pose_mean(particles_, weights_, previous_estimate_.rotation);
   if (motion.refine_rounds > 0) refine(data, likelihood, motion.refine_rounds);

@@ -14,9 +14,6 @@ namespace mfot {
 
 namespace {
 
-// The least pairing distance a config gives ICP (tracker.icp_max_distance's floor in configs/default.yaml).
-constexpr double kMinPairingDistance = 1e-4;
-
 const TrackingStepOptions& validated(const TrackingStepOptions& options) {
   options.validate();
   return options;
@@ -58,13 +55,6 @@ void TrackingStepOptions::validate() const {
   }
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
   icp.validate("TrackingStepOptions.icp");
-  require_in_range("TrackingStepOptions", "isolated_icp_max_distance", isolated_icp_max_distance, 0.0, 0.1, false);
-  // Set, it is a pairing distance like icp.max_distance, with the same floor (configs/default.yaml): a tinier one
-  // pairs no point, so ICP would refuse every isolated frame without saying why.
-  if (isolated_icp_max_distance > 0.f) {
-    require_in_range("TrackingStepOptions", "isolated_icp_max_distance (when set)", isolated_icp_max_distance,
-                     kMinPairingDistance, 0.1, false);
-  }
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
         "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
@@ -86,10 +76,6 @@ void TrackingStepOptions::validate() const {
                        "the occluded share is measured there");
   needs_occlusion_test(companion_pose_check, "companion_pose_check",
                        "the seen-through share needs the scene's rays, indexed there");
-  if (!(last_pose_check_margin >= 0.f && last_pose_check_margin < 1.f)) {
-    throw std::invalid_argument("TrackingStepOptions.last_pose_check_margin must be in [0, 1), got " +
-                                std::to_string(last_pose_check_margin));
-  }
   require_in_range("TrackingStepOptions", "companion_turn_min", companion_turn_min, 0.0, std::numbers::pi, false);
   require_in_range("TrackingStepOptions", "companion_turn_min_cosine", companion_turn_min_cosine, -1.0, 1.0, false);
   require_in_range("TrackingStepOptions", "companion_turn_max_kept", companion_turn_max_kept, 0.0, 1.0, false);
@@ -104,11 +90,6 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
       occlusion_(options.occlusion),
       fit_(options.fit),
       icp_(options.icp),
-      isolated_icp_([&] {
-        IcpRefinementOptions isolated = options.icp;
-        if (options.isolated_icp_max_distance > 0.f) isolated.max_distance = options.isolated_icp_max_distance;
-        return isolated;
-      }()),
       last_pose_icp_([&] {
         IcpRefinementOptions sparse = options.icp;
         sparse.max_points = options.last_pose_check_points;
@@ -169,9 +150,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
-    IcpRefinement& refinement = result.isolated && options_.isolated_icp_max_distance > 0.f ? isolated_icp_ : icp_;
-    const IcpResult icp = refinement.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions,
-                                            model.features, result.estimate);
+    const IcpResult icp = icp_.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions, model.features,
+                                      result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
@@ -217,7 +197,7 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
     return last_pose_icp_.unexplained(hypothesis_.points, hypothesis_.features, points, model.features, pose, n) +
            occlusion_.seen_through_share(points, pose, n);
   };
-  if (unexplained(start) < (1.f - options_.last_pose_check_margin) * unexplained(estimate)) return start;
+  if (unexplained(start) < unexplained(estimate)) return start;
   return std::nullopt;
 }
 

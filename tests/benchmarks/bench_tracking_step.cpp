@@ -1,7 +1,7 @@
 // Cost of one object's tracking step on the CPU (issue 17's budget: at most 1.5x the thesis's step
 // for 3 objects at 100 particles): the particle filter's step alone, the published confidence
 // (EstimateFit) on the same points, and the whole TrackingStep with and without the motion-model
-// options (pattern-search refinement, annealing, the isolated-object step of configs/default.yaml: a
+// options (pattern-search refinement, the isolated-object step of configs/default.yaml: a
 // quarter more particles moved by dX and 2 refinement rounds while no other object is near, and the ICP
 // refinement: 10 iterations on up to 2000 points as configured, 5 on 200 as before, or 10 whose last 3
 // take 2000). The object is the synthetic 10 x 15 x 8 cm test box (~1500 model points at 5 mm)
@@ -78,8 +78,6 @@ int main(int argc, char** argv) {
   thesis.num_particles = 100;
   mfot::ParticleFilterOptions refine = thesis;
   refine.refine_rounds = 2;
-  mfot::ParticleFilterOptions anneal = thesis;
-  anneal.anneal_iterations = 2;
   mfot::TrackingStepOptions isolated;  // nothing else near: every frame steps with isolated_motion
   isolated.exclude_claimed_radius = 0.01f;
   isolated.follow_isolated = true;
@@ -105,7 +103,6 @@ int main(int argc, char** argv) {
                       {"thesis motion model, ICP 10 on 2000 points (others near)", thesis, dense_icp},
                       {"thesis motion model, ICP 10, the last 3 on 2000 points", thesis, final_dense_icp},
                       {"refine_rounds 2", refine, {}},
-                      {"anneal_iterations 2", anneal, {}},
                       {"isolated: predicted 0.75, refine 2", thesis, isolated},
                       {"isolated: predicted 0.75, refine 2, ICP 5 on 200 points", thesis, isolated_icp},
                       {"isolated: predicted 0.75, refine 2, ICP 10 on 2000 points", thesis, isolated_dense_icp}};

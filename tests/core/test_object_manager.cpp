@@ -1089,6 +1089,7 @@ ObjectManagerOptions confirm_options() {
   options.model_update.alpha = 0.f;  // models stay as built: checked point by point
   options.discovery.confirm_frames = 5;
   options.discovery.confirm_votes = 2;
+  options.discovery.min_part_points = 150;  // the test's blocks' halves are parts (the shipped 400 is a real scene's)
   return options;
 }
 

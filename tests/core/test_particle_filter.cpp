@@ -251,20 +251,6 @@ TEST(ParticleFilter, ACompanionsMotionMovesAShareOfTheUnpredictedParticles) {
   EXPECT_THROW(ParticleFilter{invalid}, std::invalid_argument);
 }
 
-TEST(ParticleFilter, AnnealingNarrowsAThinParticleSetOnTheObject) {
-  const MovingObject scene;
-  ParticleFilterOptions options = tracking_options(7);
-  options.num_particles = 30;
-  const TrackResult once = track(scene, options);
-  options.anneal_iterations = 3;
-  const TrackResult annealed = track(scene, options);
-  std::printf("30 particles: rotation mean %.2f -> %.2f deg, translation mean %.2f -> %.2f mm with 3 weightings a frame\n",
-              degrees(once.mean_rotation_error), degrees(annealed.mean_rotation_error),
-              1e3f * once.mean_translation_error, 1e3f * annealed.mean_translation_error);
-  EXPECT_LT(annealed.mean_rotation_error, 0.8f * once.mean_rotation_error);
-  EXPECT_LT(annealed.mean_translation_error, once.mean_translation_error);
-}
-
 TEST(ParticleFilter, SameSeedIsBitIdenticalAndOtherSeedsDiffer) {
   const MovingObject scene;
   ParticleFilterOptions short_run = tracking_options(3);

@@ -280,65 +280,6 @@ TEST(TrackingStep, RefinesTheEstimateOnTheModelSurfaceIsolatedOrGripped) {
   }
 }
 
-// isolated_icp_max_distance: step 5b pairs within it where the object is isolated, within icp.max_distance where
-// another object's points are near (not isolated). Checked against filters stepped and refined by hand on the points
-// the step scored, on a box whose model holds one of its near faces only in part (a face coming into view, grown
-// only where it first showed), where the two distances refine to different poses.
-TEST(TrackingStep, RefinesAnIsolatedObjectWithinTheIsolatedPairingDistance) {
-  const Eigen::Vector3f size = test::kTestObjectSize;
-  const Pose truth = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f(1.f, 1.f, 0.f), 0.6f);
-  const ColoredCloud scene = test::seen_from_origin(test::make_test_object(0.5f, 0.005f), size, truth);
-  ColoredCloud modelled;
-  const ColoredCloud box_points = test::make_test_object(0.f, 0.005f);
-  for (std::size_t k = 0; k < box_points.size(); ++k) {
-    const Eigen::Vector3f& p = box_points.positions[k];
-    const Eigen::Vector3f normal = test::face_normal(p, size);
-    if ((truth.rotation * normal).dot(truth.isometry() * p) >= 0.f) continue;  // a far face
-    if (normal.x() != 0.f && p.y() > -0.04f) continue;                          // the face along x held in part
-    modelled.push_back(p, box_points.colors[k]);
-  }
-  const ObjectModel model = test::make_model(modelled);
-  const Eigen::AlignedBox3f box = model_bounding_box(model);
-  JcsdLikelihood likelihood;
-  likelihood.set_model(model);
-  TrackingStepOptions options = occlusion_aware();
-  options.exclude_claimed_radius = 0.01f;
-  options.follow_isolated = true;
-  options.icp.iterations = 10;
-  options.icp.max_distance = 0.01f;
-  options.isolated_icp_max_distance = 0.005f;
-  const std::vector<Eigen::Vector3f> claims{truth.translation + Eigen::Vector3f(0.f, 0.f, 0.1f)};
-  for (const bool claimed : {false, true}) {
-    TrackingStep step(options);
-    ParticleFilter filter(filter_options());
-    ParticleFilter by_hand(filter_options());
-    filter.reset(truth);
-    by_hand.reset(truth);
-    IcpRefinementOptions paired_within = options.icp;
-    IcpRefinementOptions paired_otherwise = options.icp;
-    (claimed ? paired_otherwise : paired_within).max_distance = options.isolated_icp_max_distance;
-    IcpRefinement icp(paired_within);
-    IcpRefinement other_icp(paired_otherwise);
-    int differs = 0;
-    for (int frame = 0; frame < 5; ++frame) {
-      if (claimed) step.set_claimed_points(claims);
-      const TrackingStepResult r = step.track(scene, model, box, filter, likelihood);
-      ASSERT_EQ(r.isolated, !claimed) << "frame " << frame;
-      ASSERT_TRUE(r.icp_refined) << "frame " << frame;
-      const Pose stepped = by_hand.step(step.hypothesis(), likelihood,
-                                        claimed ? filter_options().step_motion() : options.isolated_motion);
-      const IcpResult refined = icp.refine(step.hypothesis().points, model.cloud.positions, stepped);
-      const IcpResult other = other_icp.refine(step.hypothesis().points, model.cloud.positions, stepped);
-      ASSERT_TRUE(refined.refined) << "frame " << frame;
-      const Pose expected = by_hand.replace_estimate(refined.pose);
-      ASSERT_EQ(r.estimate.translation, expected.translation) << "frame " << frame;
-      ASSERT_EQ(r.estimate.rotation.coeffs(), expected.rotation.coeffs()) << "frame " << frame;
-      differs += other.pose.translation != refined.pose.translation ? 1 : 0;
-    }
-    EXPECT_GT(differs, 0) << "claimed " << claimed << ": the two distances refine alike here, so this checks nothing";
-  }
-}
-
 // hold_min_scored_share: a corner of the box (its points with x > 4 cm and y > 4 cm in the box frame,
 // under 10 % of the model) beside fingers its hand claims holds the filter; the whole box steps it again; past
 // max_hold_frames holds in a row the filter steps on the strip.
@@ -586,13 +527,11 @@ TEST(TrackingStep, KeepsAPartlyHiddenStillObjectWhereItWasAgainstAModeOffIt) {
     }
     return std::pair(r, kept);
   };
-  for (const float margin : {0.f, 0.02f}) {
-    TrackingStepOptions options = last_pose_checked(0.15f);
-    options.last_pose_check_margin = margin;
-    const auto [checked, kept] = run(options, true, false);
-    EXPECT_GT(kept, 20) << "margin " << margin;
-    EXPECT_LT(test::translation_error(checked.estimate, setup.truth), 0.002f) << "margin " << margin;
-    EXPECT_LT(test::degrees(test::rotation_error(checked.estimate, setup.truth)), 1.f) << "margin " << margin;
+  {
+    const auto [checked, kept] = run(last_pose_checked(0.15f), true, false);
+    EXPECT_GT(kept, 20);
+    EXPECT_LT(test::translation_error(checked.estimate, setup.truth), 0.002f);
+    EXPECT_LT(test::degrees(test::rotation_error(checked.estimate, setup.truth)), 1.f);
   }
   for (const auto& [options, hand, companion] : {std::tuple(last_pose_checked(0.f), true, false),
                                                  std::tuple(last_pose_checked(0.15f), false, false),
@@ -814,9 +753,6 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.last_pose_check_points = 2;
   EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
   o.last_pose_check_points = 400;
-  o.last_pose_check_margin = 1.f;  // nothing could be kept
-  EXPECT_THROW(TrackingStep{o}, std::invalid_argument);
-  o.last_pose_check_margin = 0.02f;
   EXPECT_NO_THROW(TrackingStep{o});
   o.hold_occluded_share = 0.f;  // the occluded share is not measured
   expect_invalid_with(o, "TrackingStepOptions.last_pose_check_occluded_share needs hold_occluded_share > 0");
@@ -839,14 +775,6 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   o.companion_turn_max_kept = std::numeric_limits<float>::quiet_NaN();
   expect_invalid_with(o, "TrackingStepOptions.companion_turn_max_kept must be in [0");
   o.companion_turn_max_kept = 0.3f;
-  EXPECT_NO_THROW(TrackingStep{o});
-  o.isolated_icp_max_distance = 0.2f;
-  expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance must be in [0");
-  o.isolated_icp_max_distance = std::numeric_limits<float>::quiet_NaN();
-  expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance must be in [0");
-  o.isolated_icp_max_distance = 5e-5f;  // set, but below any pairing distance: ICP would pair nothing
-  expect_invalid_with(o, "TrackingStepOptions.isolated_icp_max_distance (when set) must be in [0.0001");
-  o.isolated_icp_max_distance = 0.008f;  // unused without follow_isolated, and not refused
   EXPECT_NO_THROW(TrackingStep{o});
   o = occlusion_aware();
   o.companion_pose_check = true;

@@ -59,9 +59,8 @@ SECTION_CASES = [
     ("merger", "merger:\n  alpha: 1.5\n", ["merger.alpha", "out of range [0.000000, 1.000000]"]),
     ("merger", "merger:\n  tau: 0\n", ["merger.tau", "out of range [0.000100, 0.100000]"]),
     ("merger", "merger:\n  world:\n    rotation: [2, 0, 0, 0]\n", ["merger.world", "unit quaternion"]),
-    # a setting without another that it needs (carry mode and two tracker settings)
-    ("merger", "merger:\n  carry:\n    gripped_away: carry\n",
-     ["merger.carry.gripped_away", "tracker.last_pose_check_occluded_share", "tracker.particles_follow_refinement"]),
+    # a setting the method's constants bound (a split is confirmed in 3 frames)
+    ("merger", "merger:\n  discovery:\n    confirm_frames: 2\n", ["merger.discovery.confirm_frames", "at least 3"]),
 ]
 
 # Errors of the file itself, refused by every service: (name, file text, texts the error must contain).
@@ -119,9 +118,9 @@ class BadConfigTest(unittest.TestCase):
     def test_the_group_stops_at_once_when_a_service_refuses_the_config(self):
         # scripts/mfot-run starts the services, sees the merger refuse and stops them before the source starts
         # (not after its wait for every service's first status), saying why and exiting with the same status.
-        config = Path(self.tmp.name) / "carry.yaml"
+        config = Path(self.tmp.name) / "refused.yaml"
         config.write_text(f"group:\n  lcm_url: {LCM_URL}\n  ready_timeout_s: 60\n"
-                          "merger:\n  carry:\n    gripped_away: carry\n")
+                          "merger:\n  discovery:\n    confirm_frames: 2\n")
         argv = [sys.executable, str(REPO / "scripts/mfot-run"), "--build-dir", str(BUILD), "--config", str(config),
                 "--scenario", "static", "--max-frames", "5", "--workers", "1", "--quiet",
                 "--out", str(Path(self.tmp.name) / "run")]
@@ -131,7 +130,7 @@ class BadConfigTest(unittest.TestCase):
             self.fail("mfot-run waited for the refusing service instead of stopping")
         output = res.stdout + res.stderr
         self.assertEqual(res.returncode, CONFIG_REFUSED, output)
-        self.assertIn("merger refused the configuration: merger.carry.gripped_away", output)
+        self.assertIn("merger refused the configuration: merger.discovery.confirm_frames", output)
         self.assertIn("before the source starts", output)
         self.assertNotIn("process group up", output)
 

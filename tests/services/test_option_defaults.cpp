@@ -29,15 +29,10 @@ const std::set<std::string> kStructKeepsTheThesis = {
     "tracker.particles",
     "tracker.companion_fraction",
     "tracker.hold_occluded_share",
-    "tracker.hold_min_scored_share",
     "tracker.exclude_occluders",
-    "tracker.confidence_seen_through_weight",
     "tracker.follow_isolated",
     "tracker.icp_iterations",
-    "tracker.icp_min_paired_share",
     "tracker.icp_max_points",
-    "tracker.icp_final_points",
-    "tracker.icp_anchor_weight",
     "tracker.companion_pose_check",
     "tracker.companion_turn_min_deg",
     "tracker.queue_scenes",
@@ -47,24 +42,16 @@ const std::set<std::string> kStructKeepsTheThesis = {
     "merger.alpha",
     "merger.propagation_min_seed_share",
     "merger.reidentify_grown",
-    "merger.reidentify_grown_min_share",
-    "merger.hidden_occluded_share",
-    "merger.new_object_held_margin",
     "merger.discovery.seed_resolution",
     "merger.discovery.confirm_frames",
     "merger.discovery.confirm_join",
     "merger.discovery.boundary_radius",
     "merger.join_frames",
     "merger.split_frames",
-    "merger.split_min_departure",
     "merger.carry.frames",
     "merger.carry.seen_through_share",
     "merger.companion.contact_distance",
     "merger.refit.enabled",
-    "merger.refit.min_rotation_deg",
-    "merger.refit.icp_min_paired_share",
-    "merger.refit.icp_max_rotation_deg",
-    "merger.refit.icp_max_points",
 };
 
 template <class T>
@@ -116,11 +103,8 @@ TEST(OptionDefaults, TheOptionStructsDefaultToTheDeclaredValues) {
               "tracker.last_pose_check_occluded_share");
   expect_same(loaded_tracker.filter.follow_replaced_estimate, plain_tracker.filter.follow_replaced_estimate,
               "tracker.particles_follow_refinement");
-  for (const auto* fit : {&plain_tracker.step.fit, &plain_merger.manager.registration.fit}) {
-    expect_same(loaded_tracker.step.fit.match_distance, fit->match_distance, "tracker.confidence_match_distance");
-    expect_same(loaded_tracker.step.fit.claim_margin, fit->claim_margin, "tracker.confidence_claim_margin");
-    expect_same(loaded_tracker.step.fit.min_claimed_points, fit->min_claimed_points, "tracker.confidence_min_points");
-  }
+  expect_same(loaded_merger.manager.hidden_occluded_share, plain_merger.manager.hidden_occluded_share,
+              "tracker.hold_occluded_share");
 }
 
 }  // namespace

@@ -36,7 +36,6 @@ struct DiscoveryOptions {
   float normal_importance = 4.0f;
   float concavity_tolerance_deg = 10.f;  // a concave edge flatter than this still joins, (0, 90]
   float smoothness_threshold = 0.1f;  // LCCP's smoothness check (step between supervoxels), [0, 1]; 0 = off
-  bool extended_convexity = false;    // LCCP's k-factor 1: a convex edge needs a common neighbour that agrees
   bool sanity_criterion = true;       // LCCP's sanity check of singular (edge-on) connections
   // Two supervoxels LCCP joins stay joined only while their mean colours' CIELab a*b* lie within this
   // of each other: touching objects whose faces are flush (no concave edge between them) come apart

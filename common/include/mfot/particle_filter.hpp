@@ -59,12 +59,6 @@ struct ParticleFilterOptions {
   // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
   // the best and halves both steps. 0 rounds = the thesis (the weighted mean only).
   int refine_rounds = 0;            // [0, 20]
-  // Annealed steps (Deutscher et al. 2000, annealed particle filtering): after the weighting of
-  // step 4, anneal_iterations - 1 more rounds of resampling, diffusion with C_init scaled by
-  // anneal_shrink^k (k = 1, 2, ...; no prediction) and reweighting, so the particle set narrows on
-  // the mode within one frame. Each round costs one more likelihood evaluation. 1 = the thesis.
-  int anneal_iterations = 1;        // [1, 10]
-  float anneal_shrink = 0.5f;       // (0, 1]
   float refine_translation = 0.002f;  // metres, [0, 0.1]
   float refine_rotation = 0.0175f;    // radians, [0, 0.5]
   // The filter's own step motion (what step() without a StepMotion uses).
@@ -104,8 +98,6 @@ Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weig
 //  5. estimate (2.11): weighted mean translation and the weighted quaternion mean (eigenvector of
 //     the largest eigenvalue of sum w_i q_i q_i^T, sign-aligned with the previous estimate);
 //     dX = X_t - X_{t-1} (2.13);
-//  4b. with anneal_iterations > 1, resample, diffuse with a shrinking C_init and reweight that
-//     many times less one;
 //  6. with refine_rounds > 0, refine the estimate by a pattern search on the likelihood before
 //     dX is taken (departure: the weighted mean of 100 particles over 6 DoF lags a turning object;
 //     the refined estimate's dX then predicts the next frame's particles further).
@@ -166,7 +158,6 @@ class ParticleFilter {
   float standard_normal();
   void resample();
   void diffuse_and_predict(float predicted_fraction, const PoseVector* companion);
-  void diffuse(float scale);  // N(0, scale^2 C_init) on every particle
   void move_particles(const Pose& pose);  // every particle by the rigid motion taking the estimate to pose
   void refine(const HypothesisData& data, Likelihood& likelihood, int rounds);
 

@@ -83,15 +83,6 @@ struct TrackingStepOptions {
   // filter's follow_replaced_estimate says. Departure from the thesis: the JCSD score is smooth over
   // its 15 mm kernel, so its mode lies degrees from the pose at some views.
   IcpRefinementOptions icp;
-  // The pairing distance of step 5b's ICP in a frame where the object is isolated (as follow_isolated tells it),
-  // instead of icp.max_distance (a departure from the thesis, off by default; docs/experiment-log.md "A tighter pairing for isolated
-  // objects, not the default"). A turning box shows faces its model does not hold yet, or holds only in part: their
-  // scene points within the pairing distance of the model's rim pair with it and pull the estimate over, and the face
-  // then grows at that pose (`spin` seed 117: a face grown 4.4 degrees off). Where a hand is near, the wider pairing
-  // holds the hand that carries a hidden box (8 mm everywhere read 10.6-11.2 degrees on `rotate`). Metres, 0 or
-  // [0.0001, 0.1] (the floor of every pairing distance in the config); 0 = icp.max_distance. Used only with
-  // follow_isolated (no object is isolated without it).
-  float isolated_icp_max_distance = 0.f;
   // The last estimate as a second start (departure from the thesis; docs/experiment-log.md "A partly hidden object kept where
   // it was"). The JCSD score sums the model's density at the scene points, so where part of an object is
   // hidden, a pose that sinks its visible surface into the model's hidden side scores higher (`apart`: the
@@ -101,18 +92,15 @@ struct TrackingStepOptions {
   // most last_pose_check_points scored points), and it replaces the filter's estimate when it explains the
   // view better: its share of scored points unexplained (IcpRefinement::unexplained) plus its share of model
   // points seen through (OcclusionTest::seen_through_share: where the view shows what lies behind), each on at
-  // most last_pose_check_points points, at least last_pose_check_margin (a share of it) below the estimate's.
+  // most last_pose_check_points points, is lower than the estimate's.
   // [0, 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
   float last_pose_check_occluded_share = 0.f;
   int last_pose_check_points = 400;  // [3, 1000000]
-  // [0, 1): 0 keeps the last pose on any lower charge; a margin leaves the noise-level ties to the filter (a
-  // gripped box about to turn).
-  float last_pose_check_margin = 0.f;
   // The companion's pose as a second start (departure from the thesis; docs/experiment-log.md "A gripped object started where its
   // companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at least
   // last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined too,
-  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points, with
-  // last_pose_check_margin) is lower: a box turned by the hand that grips it shows too little of itself for the
+  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points) is
+  // lower: a box turned by the hand that grips it shows too little of itself for the
   // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
   // the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it keeps its
   // place. Needs hold_occluded_share > 0. false = the filter's estimate (thesis); configs/default.yaml turns it on
@@ -175,9 +163,8 @@ struct TrackingStepResult {
 //     never scored by this object;
 //  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
 //     and no other object's model is near; with the companion's motion when one was set);
-//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points (pairing within
-//      isolated_icp_max_distance where the object is isolated and that is set; in colour and space with
-//      icp.color_weight, the points' SMR features against the model's, here and in 5c-5d);
+//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points (in colour and space
+//      with icp.color_weight, the points' SMR features against the model's, here and in 5c-5d);
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
 //  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
@@ -232,7 +219,6 @@ class TrackingStep {
   HypothesisData hypothesis_;
   EstimateFit fit_;
   IcpRefinement icp_;
-  IcpRefinement isolated_icp_;   // step 5b in an isolated frame: icp's settings, isolated_icp_max_distance apart
   IcpRefinement last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
   // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
   // estimate, else nullopt.

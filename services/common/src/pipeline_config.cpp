@@ -25,28 +25,30 @@ int auto_preprocess_threads() {
   return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
 
-// The tracker keys that the merger shares: the JCSD cell and the confidence measure (its
-// re-identification registration), the hypothesis margin and the claim radius (what it sends with
-// each model), and the two settings carry mode needs off; read the same way, with the same ranges, by
-// both loaders.
+// The tracker keys that the merger shares: the JCSD cell (its re-identification registration), the
+// hypothesis margin and the claim radius (what it sends with each model), and the hold's occluded share
+// (a hidden object's frames do not count towards its retirement); read the same way, with the same
+// ranges, by both loaders.
 float read_cell_size(ConfigSection& tracker) { return read_option<float>(tracker, "cell_size"); }
 
 float read_hypothesis_margin(ConfigSection& tracker) { return read_option<float>(tracker, "hypothesis_margin"); }
 float read_claim_radius(ConfigSection& tracker) { return read_option<float>(tracker, "exclude_claimed_radius"); }
-float read_last_pose_check_share(ConfigSection& tracker) {
-  return read_option<float>(tracker, "last_pose_check_occluded_share");
-}
-float read_particles_follow(ConfigSection& tracker) {
-  return read_option<float>(tracker, "particles_follow_refinement");
-}
+float read_hold_occluded_share(ConfigSection& tracker) { return read_option<float>(tracker, "hold_occluded_share"); }
 
-EstimateFitOptions read_fit_options(ConfigSection& tracker) {
-  EstimateFitOptions fit;
-  fit.match_distance = read_option<float>(tracker, "confidence_match_distance");
-  fit.claim_margin = read_option<float>(tracker, "confidence_claim_margin");
-  fit.min_claimed_points = read_option<int>(tracker, "confidence_min_points");
-  return fit;
-}
+// The method's constants where the core's option structs keep the thesis (a feature off, or its value):
+// the services run these (docs/method.md, "Constants"). Every other constant of the method is its
+// option struct's default.
+constexpr float kIcpMinPairedShare = 0.8f;         // fewer scored points paired: the estimate stays
+constexpr float kIcpAnchorWeight = 4.f;            // the model's first-view points' weight in ICP's fit
+constexpr float kConfidenceSeenThroughWeight = 2.f;  // confidence x (1 - this x the share seen through)
+constexpr float kHoldMinScoredShare = 0.2f;        // fewer scored points than this share of the model: hold
+constexpr float kReidentifyGrownMinShare = 0.5f;   // a grown object is matched once it holds this of the model
+constexpr float kNewObjectHeldMargin = 0.02f;      // unexplained points this near a held object's box are its own
+constexpr float kSplitMinDeparture = 0.03f;        // a part splits off once it departed this far
+constexpr float kRefitMinRotationDeg = 0.5f;       // a refit part turned less (and moved less) stays
+constexpr float kRefitIcpMinPairedShare = 0.8f;
+constexpr float kRefitIcpMaxRotationDeg = 10.f;
+constexpr int kRefitIcpMaxPoints = 1000;
 
 }  // namespace
 
@@ -105,46 +107,25 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.b = read_option<float>(s, "diffusion_b");
   c.filter.predicted_fraction = read_option<float>(s, "predicted_fraction");
   c.filter.companion_fraction = read_option<float>(s, "companion_fraction");
-  c.filter.follow_replaced_estimate = read_particles_follow(s);
-  c.filter.anneal_iterations = read_option<int>(s, "anneal_iterations");
-  c.filter.anneal_shrink = read_option<float>(s, "anneal_shrink");
-  c.filter.refine_rounds = read_option<int>(s, "refine_rounds");
-  c.filter.refine_translation = read_option<float>(s, "refine_translation");
-  c.filter.refine_rotation = read_option<float>(s, "refine_rotation");
+  c.filter.follow_replaced_estimate = read_option<float>(s, "particles_follow_refinement");
   c.step.hypothesis.margin = read_hypothesis_margin(s);
   c.step.hold_occluded_share = read_option<float>(s, "hold_occluded_share");
   c.step.max_hold_frames = read_option<int>(s, "max_hold_frames");
-  c.step.hold_min_scored_share = read_option<float>(s, "hold_min_scored_share");
+  c.step.hold_min_scored_share = kHoldMinScoredShare;
   c.step.exclude_occluders = read_option<bool>(s, "exclude_occluders");
-  c.step.occlusion.depth_margin = read_option<float>(s, "occluder_depth_margin");
-  c.step.occlusion.window = read_option<float>(s, "occlusion_window");
-  c.step.occlusion.own_surface_radius =
-      read_option<float>(s, "own_surface_radius");
-  c.step.fit = read_fit_options(s);
-  c.step.hold_confidence_half_life = read_option<float>(s, "confidence_hold_half_life");
-  c.step.confidence_seen_through_weight = read_option<float>(s, "confidence_seen_through_weight");
+  // The seen-through share needs the scene's rays, which only the hold indexes: without a hold, the fit alone.
+  c.step.confidence_seen_through_weight = c.step.hold_occluded_share > 0.f ? kConfidenceSeenThroughWeight : 0.f;
   c.step.exclude_claimed_radius = read_claim_radius(s);
   c.step.follow_isolated = read_option<bool>(s, "follow_isolated");
-  c.step.isolated_motion.predicted_fraction = read_option<float>(s, "isolated_predicted_fraction");
-  c.step.isolated_motion.refine_rounds = read_option<int>(s, "isolated_refine_rounds");
   c.step.icp.iterations = read_option<int>(s, "icp_iterations");
   c.step.icp.max_distance = read_option<float>(s, "icp_max_distance");
-  c.step.isolated_icp_max_distance = read_option<float>(s, "isolated_icp_max_distance");
-  c.step.icp.min_paired_share = read_option<float>(s, "icp_min_paired_share");
-  c.step.icp.max_translation = read_option<float>(s, "icp_max_translation");
-  c.step.icp.max_rotation = read_option<float>(s, "icp_max_rotation");
+  c.step.icp.min_paired_share = kIcpMinPairedShare;
   c.step.icp.max_points = read_option<int>(s, "icp_max_points");
-  c.step.icp.final_iterations = read_option<int>(s, "icp_final_iterations");
-  c.step.icp.final_points = read_option<int>(s, "icp_final_points");
-  c.step.icp.anchor_weight = read_option<float>(s, "icp_anchor_weight");
+  c.step.icp.anchor_weight = kIcpAnchorWeight;
   c.step.icp.color_weight = read_option<float>(s, "icp_color_weight");
-  c.step.last_pose_check_occluded_share = read_last_pose_check_share(s);
-  c.step.last_pose_check_points = read_option<int>(s, "last_pose_check_points");
-  c.step.last_pose_check_margin = read_option<float>(s, "last_pose_check_margin");
+  c.step.last_pose_check_occluded_share = read_option<float>(s, "last_pose_check_occluded_share");
   c.step.companion_pose_check = read_option<bool>(s, "companion_pose_check");
   c.step.companion_turn_min = read_option<float>(s, "companion_turn_min_deg") * kRadiansPerDegree;
-  c.step.companion_turn_min_cosine = read_option<float>(s, "companion_turn_min_cosine");
-  c.step.companion_turn_max_kept = read_option<float>(s, "companion_turn_max_kept");
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
   c.merger_timeout_ms = read_option<int>(s, "merger_timeout_ms");
   c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
@@ -165,7 +146,6 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   auto s = config_section(root, "merger");
   c.manager.segmentation.tau = read_option<float>(s, "tau");
   c.manager.model_update.alpha = read_option<float>(s, "alpha");
-  c.manager.model_update.seen_radius = read_option<float>(s, "seen_radius");
   c.manager.model_update.seed = read_option<std::uint64_t>(s, "seed");
   c.manager.min_object_points = read_option<std::size_t>(s, "min_object_points");
   c.manager.max_model_points = read_option<std::size_t>(s, "max_model_points");
@@ -176,17 +156,14 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.reidentify_similarity = read_option<float>(s, "reidentify_similarity");
   c.manager.reidentify_register = read_option<bool>(s, "reidentify_register");
   c.manager.reidentify_grown = read_option<bool>(s, "reidentify_grown");
-  c.manager.reidentify_grown_min_share = read_option<float>(s, "reidentify_grown_min_share");
-  c.manager.registration.rotations = read_option<int>(s, "reidentify_rotations");
-  c.manager.registration.candidates = read_option<int>(s, "reidentify_candidates");
-  c.manager.registration.refine_rounds = read_option<int>(s, "reidentify_refine_rounds");
-  c.manager.registration.min_fit = read_option<float>(s, "reidentify_min_fit");
+  c.manager.reidentify_grown_min_share = kReidentifyGrownMinShare;
   c.manager.registration.seed = c.manager.model_update.seed;
   {
-    // The registration scores and checks like the trackers: their JCSD cell and confidence.
+    // The registration scores like the trackers: their JCSD cell.
     auto tracker = config_section(root, "tracker");
     c.manager.registration.cell_size = read_cell_size(tracker);
-    c.manager.registration.fit = read_fit_options(tracker);
+    // A hidden object's frames (as the trackers' hold measures it) do not count towards its retirement.
+    c.manager.hidden_occluded_share = read_hold_occluded_share(tracker);
     // Each model carries what the other objects claim inside its tracker's hypothesis box.
     TrackingStepOptions step;
     step.hypothesis.margin = read_hypothesis_margin(tracker);
@@ -194,14 +171,9 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     c.claimed_margin = step.claimed_margin();
   }
   c.manager.new_objects.confirm_frames = read_option<int>(s, "new_object_frames");
-  c.manager.new_objects.min_unassigned_share = read_option<float>(s, "new_object_unassigned_share");
   c.manager.support.min_points = read_option<std::size_t>(s, "retire_min_points");
   c.manager.support.max_frames = read_option<int>(s, "retire_frames");
-  c.manager.hidden_occluded_share =
-      read_option<float>(s, "hidden_occluded_share");
-  c.manager.held_birth_margin = read_option<float>(s, "new_object_held_margin");
-  c.manager.occlusion.depth_margin =
-      read_option<float>(s, "hidden_depth_margin");
+  c.manager.held_birth_margin = kNewObjectHeldMargin;
   c.estimate_timeout_ms = read_option<int>(s, "estimate_timeout_ms");
   c.worker_timeout_ms = read_option<int>(s, "worker_timeout_ms");
   c.expected_workers = read_option<int>(s, "expected_workers");
@@ -211,86 +183,37 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.write_labels = read_option<bool>(s, "write_labels");
   c.fitting_distance = read_option<bool>(s, "fitting_distance");
   auto discovery = s.section("discovery");
-  try {
-    c.manager.discovery.method = parse_discovery_method(read_option<std::string>(discovery, "method"));
-  } catch (const std::invalid_argument& e) {
-    throw ConfigError("merger.discovery.method: " + std::string(e.what()));
-  }
-  c.manager.discovery.voxel_resolution = read_option<float>(discovery, "voxel_resolution");
+  c.manager.discovery.method = DiscoveryMethod::kLccp;
   c.manager.discovery.seed_resolution = read_option<float>(discovery, "seed_resolution");
-  c.manager.discovery.color_importance = read_option<float>(discovery, "color_importance");
-  c.manager.discovery.spatial_importance = read_option<float>(discovery, "spatial_importance");
-  c.manager.discovery.normal_importance = read_option<float>(discovery, "normal_importance");
-  c.manager.discovery.concavity_tolerance_deg = read_option<float>(discovery, "concavity_tolerance_deg");
-  c.manager.discovery.smoothness_threshold = read_option<float>(discovery, "smoothness_threshold");
-  c.manager.discovery.extended_convexity = read_option<bool>(discovery, "extended_convexity");
-  c.manager.discovery.sanity_criterion = read_option<bool>(discovery, "sanity_criterion");
   c.manager.discovery.color_cut = read_option<float>(discovery, "color_cut");
   c.manager.discovery.min_part_points = read_option<int>(discovery, "min_part_points");
   c.manager.discovery.confirm_frames = read_option<int>(discovery, "confirm_frames");
-  c.manager.discovery.confirm_votes = read_option<int>(discovery, "confirm_votes");
-  c.manager.discovery.confirm_max_motion = read_option<float>(discovery, "confirm_max_motion");
+  if (c.manager.discovery.confirm_frames > 0 && c.manager.discovery.confirm_frames < c.manager.discovery.confirm_votes) {
+    throw ConfigError("merger.discovery.confirm_frames: 0 (off) or at least " +
+                      std::to_string(c.manager.discovery.confirm_votes) + " (the frames a split is confirmed in), got " +
+                      std::to_string(c.manager.discovery.confirm_frames));
+  }
   c.manager.discovery.confirm_join = read_option<bool>(discovery, "confirm_join");
   c.manager.discovery.boundary.radius = read_option<float>(discovery, "boundary_radius");
-  c.manager.discovery.boundary.min_color_ratio = read_option<float>(discovery, "boundary_color_ratio");
   discovery.finish();
   auto& js = c.manager.join_split;
   js.join_frames = read_option<int>(s, "join_frames");
-  js.join_translation = read_option<float>(s, "join_translation");
-  js.join_rotation_deg = read_option<float>(s, "join_rotation_deg");
-  js.join_min_motion = read_option<float>(s, "join_min_motion");
-  js.join_min_turn_deg = read_option<float>(s, "join_min_turn_deg");
-  js.join_contact_distance = read_option<float>(s, "join_contact_distance");
   js.split_frames = read_option<int>(s, "split_frames");
-  js.split_min_share = read_option<float>(s, "split_min_share");
-  js.split_min_gap = read_option<float>(s, "split_min_gap");
-  js.split_max_occluded = read_option<float>(s, "split_max_occluded");
-  js.split_min_departure = read_option<float>(s, "split_min_departure");
+  js.split_min_departure = kSplitMinDeparture;
   auto carry = s.section("carry");
   c.manager.carry.frames = read_option<int>(carry, "frames");
-  c.manager.carry.translation = read_option<float>(carry, "translation");
-  c.manager.carry.rotation_deg = read_option<float>(carry, "rotation_deg");
-  c.manager.carry.min_motion = read_option<float>(carry, "min_motion");
-  c.manager.carry.min_turn_deg = read_option<float>(carry, "min_turn_deg");
-  c.manager.carry.contact_distance = read_option<float>(carry, "contact_distance");
   c.manager.carry.seen_through_share = read_option<float>(carry, "seen_through_share");
-  c.manager.carry.carried_seen_through_share = read_option<float>(carry, "carried_seen_through_share");
-  c.manager.carry.gripped_away = read_choice(carry, "gripped_away") == "retire"
-                                     ? CarryOptions::GrippedAway::kRetire
-                                     : CarryOptions::GrippedAway::kCarry;
+  c.manager.carry.gripped_away = CarryOptions::GrippedAway::kRetire;
   carry.finish();
-  if (c.manager.carry.gripped_away == CarryOptions::GrippedAway::kCarry) {
-    // Measured to lose the carried box (docs/experiment-log.md "Carry mode and the trackers' settings"): refused here, where both
-    // sections are in view, rather than discovered in a run.
-    auto tracker = config_section(root, "tracker");
-    std::vector<std::string> on;  // the settings that must be 0
-    if (read_last_pose_check_share(tracker) > 0.f) on.push_back("tracker.last_pose_check_occluded_share > 0");
-    if (read_particles_follow(tracker) > 0.f) on.push_back("tracker.particles_follow_refinement > 0");
-    if (!on.empty()) {
-      throw ConfigError("merger.carry.gripped_away: carry does not combine with " + on.front() +
-                        (on.size() > 1 ? " or " + on.back() : "") + " (the carried box is lost): set " +
-                        (on.size() > 1 ? "them" : "it") + " to 0, as configs/carry.yaml does");
-    }
-  }
   auto companion = s.section("companion");
   c.manager.companion.contact_distance = read_option<float>(companion, "contact_distance");
-  c.manager.companion.min_motion = read_option<float>(companion, "min_motion");
-  c.manager.companion.min_turn_deg = read_option<float>(companion, "min_turn_deg");
   companion.finish();
   auto refit = s.section("refit");
   c.manager.refit.enabled = read_option<bool>(refit, "enabled");
-  c.manager.refit.min_points = read_option<int>(refit, "min_points");
-  c.manager.refit.min_spread = read_option<float>(refit, "min_spread");
-  c.manager.refit.min_coverage = read_option<float>(refit, "min_coverage");
-  c.manager.refit.min_rotation = read_option<float>(refit, "min_rotation_deg") * kRadiansPerDegree;
-  c.manager.refit.min_translation = read_option<float>(refit, "min_translation");
-  c.manager.refit.min_held_rotation = read_option<float>(refit, "min_held_rotation");
-  c.manager.refit.icp.iterations = read_option<int>(refit, "icp_iterations");
-  c.manager.refit.icp.max_distance = read_option<float>(refit, "icp_max_distance");
-  c.manager.refit.icp.min_paired_share = read_option<float>(refit, "icp_min_paired_share");
-  c.manager.refit.icp.max_translation = read_option<float>(refit, "icp_max_translation");
-  c.manager.refit.icp.max_rotation = read_option<float>(refit, "icp_max_rotation_deg") * kRadiansPerDegree;
-  c.manager.refit.icp.max_points = read_option<int>(refit, "icp_max_points");
+  c.manager.refit.min_rotation = kRefitMinRotationDeg * kRadiansPerDegree;
+  c.manager.refit.icp.min_paired_share = kRefitIcpMinPairedShare;
+  c.manager.refit.icp.max_rotation = kRefitIcpMaxRotationDeg * kRadiansPerDegree;
+  c.manager.refit.icp.max_points = kRefitIcpMaxPoints;
   refit.finish();
   auto world = s.section("world");
   const auto t = read_list(world, "translation");
