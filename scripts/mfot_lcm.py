@@ -45,6 +45,9 @@ _FRAGMENT_DATA_MAX = 65423
 _MAX_MESSAGE_SIZE = 256 * 1024 * 1024
 # Incomplete fragmented messages kept at once, per sender, before the oldest is dropped.
 _MAX_PENDING = 16
+# Fragmented messages on channels nobody here subscribed to, remembered (oldest forgotten first) so that
+# their further fragments are dropped as they come instead of being reassembled.
+_MAX_IGNORED = 64
 
 
 class LcmError(RuntimeError):
@@ -115,6 +118,7 @@ class Lcm:
         self._subscriptions: List[Tuple[re.Pattern, Handler]] = []
         self._seqno = 0
         self._pending: Dict[Tuple[Tuple[str, int], int], _Partial] = {}
+        self._ignored: Dict[Tuple[Tuple[str, int], int], None] = {}  # insertion order: oldest first
         self.malformed = 0  # datagrams that were not valid LCM packets
         group = socket.inet_aton(self.url.group)
         try:
@@ -216,6 +220,8 @@ class Lcm:
         _, _, size, offset, number, count = _FRAGMENT_HEADER.unpack_from(packet)
         data_start = _FRAGMENT_HEADER.size
         key = (sender, seqno)
+        if key in self._ignored:
+            return None
         partial = self._pending.get(key)
         if number == 0:
             end = packet.find(b"\0", data_start)
@@ -224,6 +230,15 @@ class Lcm:
                 return None
             channel = packet[data_start:end].decode("utf-8", "replace")
             data_start = end + 1
+            if not any(pattern.fullmatch(channel) for pattern, _ in self._subscriptions):
+                # Nobody here listens on it: not reassembled (a process that follows statuses would
+                # otherwise copy every 1.5 MB frame and keep up to _MAX_PENDING of those that lost a
+                # fragment).
+                self._pending.pop(key, None)
+                self._ignored[key] = None
+                if len(self._ignored) > _MAX_IGNORED:
+                    del self._ignored[next(iter(self._ignored))]
+                return None
             if partial is None:
                 partial = self._new_partial(key, size, count)
                 if partial is None:

@@ -90,6 +90,42 @@ class LoopbackTest(unittest.TestCase):
             self.assertTrue(lcm.handle_until(lambda: len(received) >= 2, TIMEOUT_S))
         self.assertEqual(received, [("MFOT_SMALL", b"small"), ("MFOT_BIG", big)])
 
+    def test_fragments_of_channels_nobody_subscribed_to_are_not_kept(self):
+        # A status follower hears every frame's fragments: an unsubscribed channel's message must not be
+        # reassembled, nor kept when a fragment of it is lost (up to _MAX_PENDING frames per sender).
+        url = random_url()
+        received = []
+        with mfot_lcm.Lcm(url) as lcm:
+            lcm.subscribe("MFOT_STATUS", lambda channel, data: received.append((channel, data)))
+            packets = []
+
+            class Capture:  # the datagrams publish() would send
+                def sendto(self, packet, _dest):
+                    packets.append(packet)
+
+                def close(self):
+                    pass
+
+            real_send, lcm._send = lcm._send, Capture()
+            self.addCleanup(real_send.close)
+            big = bytes(200_000)
+            sender = ("127.0.0.1", 7667)
+            for _ in range(40):
+                packets.clear()
+                lcm.publish("MFOT_FRAME", big)
+                self.assertGreater(len(packets), 2)
+                for packet in packets[:-1]:  # the last fragment lost
+                    self.assertIsNone(lcm._accept(packet, sender))
+                self.assertEqual(len(lcm._pending), 0)
+                self.assertLessEqual(len(lcm._ignored), mfot_lcm._MAX_IGNORED)
+            # A subscribed channel is reassembled as before, its fragments in any order.
+            packets.clear()
+            lcm.publish("MFOT_STATUS", big)
+            whole = [lcm._accept(packet, sender) for packet in reversed(packets)]
+            self.assertEqual(whole[-1], ("MFOT_STATUS", big))
+            self.assertEqual(len(lcm._pending), 0)
+            lcm._send = real_send
+
     def test_garbage_datagrams_are_counted_not_delivered(self):
         url = random_url()
         received = []

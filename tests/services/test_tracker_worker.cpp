@@ -91,6 +91,29 @@ TEST(ObjectTracker, BuildsAGridOnlyForANewObjectOrModelVersion) {
   EXPECT_EQ(tracker.grid_builds(), 3);
 }
 
+TEST(ObjectTracker, HoldsNothingOfAnObjectOnceDropped) {
+  // A worker runs for hours and takes objects in turn: once one is dropped neither its grid nor its
+  // model may stay (megabytes for a large model), or an idle worker keeps the largest it ever held.
+  ObjectTracker tracker(cpu_options());
+  const auto* jcsd = dynamic_cast<const JcsdLikelihood*>(tracker.likelihood().likelihood.get());
+  ASSERT_NE(jcsd, nullptr);
+  for (std::int32_t id = 1; id <= 20; ++id) {
+    EXPECT_TRUE(tracker.set_model(id, 1, kModel, kStart));
+    tracker.track(scene_at(1));
+    EXPECT_FALSE(jcsd->grid().empty()) << id;
+    tracker.drop();
+    EXPECT_FALSE(tracker.has_object()) << id;
+    EXPECT_TRUE(jcsd->grid().empty()) << id;
+    EXPECT_EQ(jcsd->grid().values.capacity(), 0u) << id;
+    EXPECT_EQ(tracker.model().cloud.size(), 0u) << id;
+    EXPECT_EQ(tracker.model().features.capacity(), 0u) << id;
+  }
+  // Taken again after a drop: tracked as a new object, with a new grid.
+  EXPECT_TRUE(tracker.set_model(1, 1, kModel, kStart));
+  EXPECT_FALSE(jcsd->grid().empty());
+  EXPECT_EQ(tracker.model().cloud.size(), kModel.cloud.size());
+}
+
 TEST(ObjectTracker, ANewObjectStartsAsAFreshTrackerWould) {
   ObjectTracker reused(cpu_options());
   reused.set_model(3, 1, kModel, kStart);

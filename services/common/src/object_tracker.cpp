@@ -41,6 +41,13 @@ void ObjectTracker::carry_to(const Pose& pose) {
 void ObjectTracker::drop() {
   filter_.reset();
   object_id_ = -1;
+  // A worker lives long and takes objects in turn: what it held of the object goes with it (the
+  // likelihood's grid and the model, megabytes for a large model), so an idle worker's memory does
+  // not stay at the largest object it ever tracked. Every backend takes an empty model as none.
+  likelihood_.likelihood->set_model(ObjectModel{});
+  model_ = ObjectModel{};
+  model_box_ = Eigen::AlignedBox3f();
+  version_ = 0;
 }
 
 TrackingStepResult ObjectTracker::track(const ColoredCloud& scene) {

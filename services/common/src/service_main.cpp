@@ -22,6 +22,14 @@ void bound_allocator_caches() {
 #endif
 }
 
+bool trim_allocator_caches() {
+#if defined(__GLIBC__)
+  return malloc_trim(0) == 1;
+#else
+  return false;
+#endif
+}
+
 int run_service_main(const std::function<int()>& body) {
   bound_allocator_caches();
   try {

@@ -44,7 +44,8 @@ class ObjectTracker {
   // The merger carried the hidden object held to `pose` (as set_model with `carried`, model kept):
   // the whole particle set moves there.
   void carry_to(const Pose& pose);
-  // The object went to another tracker or was retired.
+  // The object went to another tracker or was retired: its filter, model and the likelihood's grid
+  // are released (has_object() false, model() empty).
   void drop();
   // The other objects' model points at their last poses (camera frame), for the step's
   // exclude_claimed_radius.

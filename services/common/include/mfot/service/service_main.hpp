@@ -27,4 +27,11 @@ int run_service_main(const std::function<int()>& body);
 // not the most it ever held.
 void bound_allocator_caches();
 
+// Gives the allocator's free pages back to the system, those inside its heaps too (glibc
+// malloc_trim(0); nothing elsewhere). A heap profile of a live group (heaptrack) shows no leak, but
+// the pages freed between live blocks stay resident: without this a long run's resident memory keeps
+// the most it ever held at once, scattered by fragmentation, instead of what it holds now. Returns
+// true when memory was given back. Called once a second by every service (StatusReporter::tick).
+bool trim_allocator_caches();
+
 }  // namespace mfot::service

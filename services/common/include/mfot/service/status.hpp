@@ -23,7 +23,8 @@ class StatusReporter {
   MalformedCounter& malformed() { return malformed_; }
   std::int64_t frames() const { return frames_; }
 
-  // Publishes and logs when a second has passed since the last report.
+  // Publishes and logs when a second has passed since the last report, then gives the allocator's
+  // free pages back (trim_allocator_caches).
   void tick();
   // Publishes and logs now (a state change others should hear at once, e.g. before exiting).
   void publish();
