@@ -21,6 +21,14 @@ constexpr float kTableRegionShare = 0.25f;
 // A cluster rests on the table when its lowest voxel lies within this of the height above the plane
 // below which points were removed as table (metres): an object standing on it, not an arm above it.
 constexpr float kRestSlack = 0.02f;
+// A pile hides the feet of the objects behind its front ones. A cluster's foot is its voxels within
+// kFootBand of its lowest (metres); a foot voxel is hidden when, looking down the image from its
+// pixel (at most kHiddenLookPx rows, past the cluster's own pixels and pixels without a voxel), the
+// first other voxel met belongs to a cluster that stands and lies kNearer (metres) nearer the camera,
+// or the image ends first (the pile runs out of view towards the camera).
+constexpr float kFootBand = 0.01f;
+constexpr int kHiddenLookPx = 10;
+constexpr float kNearer = 0.01f;
 
 // Moves into `spanned` the samples of the regions (8-connected occupied kTableCell cells) holding at
 // least kTableRegionShare of the largest region's samples, and keeps in `samples` the largest's.
@@ -163,15 +171,65 @@ void Preprocessor::keep_clusters_on_table() {
     const float removed_below = std::max(margin, sigmas * (noise[0] + noise[1] * from_reference * from_reference));
     cluster_rest_gap_[ci] = std::min(cluster_rest_gap_[ci], plane_.signed_distance(p) - removed_below);
   }
-  // Clusters keep their order (numbered by their first voxel) without the dropped ones.
-  cluster_renumber_.assign(clusters, -1);
-  int kept = 0;
+  // State per cluster before numbering: 1 stands, 0 off the table, -1 above the spanned table but
+  // not resting on it where seen (its foot may be hidden behind a standing cluster).
+  cluster_renumber_.assign(clusters, 0);
   for (std::size_t c = 0; c < clusters; ++c) {
     const float needed = options_.prism_min_share * static_cast<float>(cluster_total_[c]);
-    const bool stands = static_cast<float>(cluster_inside_[c]) >= needed ||
-                        (static_cast<float>(cluster_spanned_[c]) >= needed && cluster_rest_gap_[c] <= kRestSlack);
-    if (stands) cluster_renumber_[c] = kept++;
+    if (static_cast<float>(cluster_inside_[c]) >= needed) {
+      cluster_renumber_[c] = 1;
+    } else if (static_cast<float>(cluster_spanned_[c]) >= needed) {
+      cluster_renumber_[c] = cluster_rest_gap_[c] <= kRestSlack ? 1 : -1;
+    }
   }
+  const auto width = static_cast<std::size_t>(std::max(image_width_, 1));
+  const std::size_t rows = pixel_voxel_.size() / width;
+  // Passes while clusters join (one hidden behind a cluster found standing in the pass before): at most one per
+  // cluster.
+  for (std::size_t pass = 0; pass < clusters; ++pass) {
+    cluster_foot_.assign(clusters, 0);
+    cluster_hidden_foot_.assign(clusters, 0);
+    for (std::size_t k = 0; k < scene_.size(); ++k) {
+      const int c = scene_.cluster[k];
+      if (c < 0 || cluster_renumber_[static_cast<std::size_t>(c)] != -1) continue;
+      const auto ci = static_cast<std::size_t>(c);
+      const Eigen::Vector3f& p = scene_.positions[k];
+      const float from_reference = p.z() - noise[2];
+      const float removed_below = std::max(margin, sigmas * (noise[0] + noise[1] * from_reference * from_reference));
+      if (plane_.signed_distance(p) - removed_below > cluster_rest_gap_[ci] + kFootBand) continue;
+      // A foot voxel counts once the look down meets another voxel or the image's end; one that meets neither
+      // (its own cluster or pixels without a voxel, as the table's, all the way) tells nothing.
+      const auto u = static_cast<std::size_t>(scene_.pixel_u[k]);
+      for (std::size_t v = static_cast<std::size_t>(scene_.pixel_v[k]) + 1;
+           v <= static_cast<std::size_t>(scene_.pixel_v[k]) + kHiddenLookPx; ++v) {
+        if (v >= rows) {  // the image ends below it: its support is out of view
+          ++cluster_foot_[ci];
+          ++cluster_hidden_foot_[ci];
+          break;
+        }
+        const int j = pixel_voxel_[v * width + u];
+        if (j < 0 || scene_.cluster[static_cast<std::size_t>(j)] == c) continue;
+        ++cluster_foot_[ci];
+        const int cj = scene_.cluster[static_cast<std::size_t>(j)];
+        if (cj >= 0 && cluster_renumber_[static_cast<std::size_t>(cj)] == 1 &&
+            scene_.positions[static_cast<std::size_t>(j)].z() < p.z() - kNearer) {
+          ++cluster_hidden_foot_[ci];
+        }
+        break;
+      }
+    }
+    bool changed = false;
+    for (std::size_t c = 0; c < clusters; ++c) {
+      if (cluster_renumber_[c] == -1 && cluster_foot_[c] > 0 && 2 * cluster_hidden_foot_[c] >= cluster_foot_[c]) {
+        cluster_renumber_[c] = 1;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  // Clusters keep their order (numbered by their first voxel) without the dropped ones.
+  int kept = 0;
+  for (std::size_t c = 0; c < clusters; ++c) cluster_renumber_[c] = cluster_renumber_[c] == 1 ? kept++ : -1;
   stats_.clusters_off_table = scene_.num_clusters - kept;
   for (int& c : scene_.cluster) {
     if (c >= 0) c = cluster_renumber_[static_cast<std::size_t>(c)];

@@ -157,6 +157,18 @@ std::vector<Body> random_pile(std::uint64_t seed, int count, bool across) {
   return b;
 }
 
+// A wall of touching boxes from the image's bottom edge to the back of the table, cutting the visible table in two.
+std::vector<Body> wall() {
+  std::vector<Body> b;
+  const Rgb8 colors[4] = {{200, 30, 35}, {35, 160, 60}, {35, 70, 200}, {235, 205, 35}};
+  for (int k = 0; k < 12; ++k) {
+    const float depth = 0.10f;
+    b.push_back(box(0.12f, depth, 0.10f + 0.02f * (k % 3),
+                    at(0.f, -0.45f + k * (depth + kGap), 0.05f + 0.01f * (k % 3)), colors[k % 4]));
+  }
+  return b;
+}
+
 // The simulator's camera: 1 m from (0, 0.05, 0), 45 degrees down.
 Eigen::Isometry3f world_to_camera() {
   const Eigen::Vector3f target(0.f, 0.05f, 0.f);
@@ -373,7 +385,25 @@ TEST(PileDiscovery, ProceduralPilesOfTwentyObjects) {
   }
   std::printf("[procedural pile] %d of %d found (%.1f %%), %d spurious, slowest %.1f ms\n", found, objects,
               100.0 * found / objects, spurious, ms_max);
-  EXPECT_GE(found, 0.0 * objects);
+  // 168 of 220 (76.4 %); with the largest inlier region alone as the table 113 (51.4 %), 2 % to 83 % of a pile's
+  // voxels in no cluster where it cut the table in two; resting on the spanned table where seen, 153 (69.5 %). Most
+  // of the rest are merged (touching boxes whose front faces lie flush in one plane).
+  EXPECT_GE(found, 165) << found << " of " << objects;
+  EXPECT_EQ(spurious, 0);
+}
+
+// A pile cuts the visible table top in two: it rests on the table between the two halves and stands on it. With the
+// largest inlier region alone as the table, every box was off it: 0 of 12 found, 100 % in no object. Of the 12, the
+// front box (cut by the image's bottom edge) and a box mostly hidden behind the next may join a neighbour.
+TEST(PileDiscovery, APileAcrossTheTableStandsOnIt) {
+  const std::vector<Body> bodies = wall();
+  const PileResult r = first_frame_objects(bodies, 1);
+  SCOPED_TRACE(describe(r));
+  std::printf("[wall] %s\n", describe(r).GetString().c_str());
+  EXPECT_EQ(r.objects, static_cast<int>(bodies.size()));
+  EXPECT_GE(r.found, r.objects - 2);
+  EXPECT_EQ(r.spurious, 0);
+  EXPECT_LE(r.unassigned, 0.02f);
 }
 
 }  // namespace
