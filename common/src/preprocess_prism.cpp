@@ -1,10 +1,11 @@
 // Step 6 of Preprocessor::process: the table prism (see preprocessing.hpp).
-#include "mfot/preprocessing.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
+
+#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 namespace {
@@ -14,9 +15,25 @@ constexpr std::size_t kTableSamples = 4096;
 // The table is the largest 8-connected region of inlier samples on a grid of this cell (metres):
 // where a wall or a post crosses the plane's height its points are inliers too, but apart.
 constexpr float kTableCell = 0.02f;
+// A pile across the table cuts its visible top into regions of like size: the regions holding at
+// least this share of the largest one's samples span the table a cluster may rest on.
+constexpr float kTableRegionShare = 0.25f;
+// A cluster rests on the table when its lowest voxel lies within this of the height above the plane
+// below which points were removed as table (metres): an object standing on it, not an arm above it.
+constexpr float kRestSlack = 0.02f;
+// A pile hides the feet of the objects behind its front ones. A cluster's foot is its voxels within
+// kFootBand of its lowest (metres); a foot voxel is hidden when, looking down the image from its
+// pixel (at most kHiddenLookPx rows, past the cluster's own pixels and pixels without a voxel), the
+// first other voxel met belongs to a cluster that stands and lies kNearer (metres) nearer the camera,
+// or the image ends first (the pile runs out of view towards the camera).
+constexpr float kFootBand = 0.01f;
+constexpr int kHiddenLookPx = 10;
+constexpr float kNearer = 0.01f;
 
-// Keeps the samples of the largest 8-connected region of occupied kTableCell cells.
-void keep_largest_region(std::vector<Eigen::Vector2f>& samples) {
+// Moves into `spanned` the samples of the regions (8-connected occupied kTableCell cells) holding at
+// least kTableRegionShare of the largest region's samples, and keeps in `samples` the largest's.
+void keep_largest_region(std::vector<Eigen::Vector2f>& samples, std::vector<Eigen::Vector2f>& spanned) {
+  spanned = samples;
   std::unordered_map<std::uint64_t, int> cell_of_key;
   std::vector<std::uint64_t> keys;
   std::vector<int> cell_of_sample(samples.size());
@@ -61,10 +78,15 @@ void keep_largest_region(std::vector<Eigen::Vector2f>& samples) {
     }
   }
   if (region_count.size() <= 1) return;
-  const auto largest = static_cast<int>(std::max_element(region_count.begin(), region_count.end()) - region_count.begin());
+  const auto largest =
+      static_cast<int>(std::max_element(region_count.begin(), region_count.end()) - region_count.begin());
+  const float major = kTableRegionShare * static_cast<float>(region_count[static_cast<std::size_t>(largest)]);
   std::size_t kept = 0;
+  spanned.clear();
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (region[static_cast<std::size_t>(cell_of_sample[i])] == largest) samples[kept++] = samples[i];
+    const int r = region[static_cast<std::size_t>(cell_of_sample[i])];
+    if (static_cast<float>(region_count[static_cast<std::size_t>(r)]) >= major) spanned.push_back(samples[i]);
+    if (r == largest) samples[kept++] = samples[i];
   }
   samples.resize(kept);
 }
@@ -122,29 +144,92 @@ void Preprocessor::keep_clusters_on_table() {
     const Eigen::Vector3f& p = cropped_positions_[i];
     if (std::abs(plane_.signed_distance(p)) < band) table_samples_.push_back(on_table_plane(p));
   }
-  keep_largest_region(table_samples_);
+  keep_largest_region(table_samples_, table_span_samples_);
   table_hull_ = convex_hull(table_samples_);
   if (table_hull_.size() < 3) return;
+  table_span_hull_ = convex_hull(table_span_samples_);
 
   const auto clusters = static_cast<std::size_t>(scene_.num_clusters);
   cluster_inside_.assign(clusters, 0);
+  cluster_spanned_.assign(clusters, 0);
   cluster_total_.assign(clusters, 0);
+  cluster_rest_gap_.assign(clusters, std::numeric_limits<float>::infinity());
+  const float margin = options_.plane_margin;
+  const float sigmas = options_.plane_margin_sigmas;
+  const Eigen::Vector3f& noise = options_.depth_sigma;
   for (std::size_t k = 0; k < scene_.size(); ++k) {
     const int c = scene_.cluster[k];
     if (c < 0) continue;
-    ++cluster_total_[static_cast<std::size_t>(c)];
-    if (inside_convex_polygon(table_hull_, on_table_plane(scene_.positions[k]))) {
-      ++cluster_inside_[static_cast<std::size_t>(c)];
+    const auto ci = static_cast<std::size_t>(c);
+    ++cluster_total_[ci];
+    const Eigen::Vector3f& p = scene_.positions[k];
+    const Eigen::Vector2f q = on_table_plane(p);
+    if (inside_convex_polygon(table_hull_, q)) ++cluster_inside_[ci];
+    if (inside_convex_polygon(table_span_hull_, q)) ++cluster_spanned_[ci];
+    // as step 3's margin: the height below which points were removed as table
+    const float from_reference = p.z() - noise[2];
+    const float removed_below = std::max(margin, sigmas * (noise[0] + noise[1] * from_reference * from_reference));
+    cluster_rest_gap_[ci] = std::min(cluster_rest_gap_[ci], plane_.signed_distance(p) - removed_below);
+  }
+  // State per cluster before numbering: 1 stands, 0 off the table, -1 above the spanned table but
+  // not resting on it where seen (its foot may be hidden behind a standing cluster).
+  cluster_renumber_.assign(clusters, 0);
+  for (std::size_t c = 0; c < clusters; ++c) {
+    const float needed = options_.prism_min_share * static_cast<float>(cluster_total_[c]);
+    if (static_cast<float>(cluster_inside_[c]) >= needed) {
+      cluster_renumber_[c] = 1;
+    } else if (static_cast<float>(cluster_spanned_[c]) >= needed) {
+      cluster_renumber_[c] = cluster_rest_gap_[c] <= kRestSlack ? 1 : -1;
     }
+  }
+  const auto width = static_cast<std::size_t>(std::max(image_width_, 1));
+  const std::size_t rows = pixel_voxel_.size() / width;
+  // Passes while clusters join (one hidden behind a cluster found standing in the pass before): at most one per
+  // cluster.
+  for (std::size_t pass = 0; pass < clusters; ++pass) {
+    cluster_foot_.assign(clusters, 0);
+    cluster_hidden_foot_.assign(clusters, 0);
+    for (std::size_t k = 0; k < scene_.size(); ++k) {
+      const int c = scene_.cluster[k];
+      if (c < 0 || cluster_renumber_[static_cast<std::size_t>(c)] != -1) continue;
+      const auto ci = static_cast<std::size_t>(c);
+      const Eigen::Vector3f& p = scene_.positions[k];
+      const float from_reference = p.z() - noise[2];
+      const float removed_below = std::max(margin, sigmas * (noise[0] + noise[1] * from_reference * from_reference));
+      if (plane_.signed_distance(p) - removed_below > cluster_rest_gap_[ci] + kFootBand) continue;
+      // A foot voxel counts once the look down meets another voxel or the image's end; one that meets neither
+      // (its own cluster or pixels without a voxel, as the table's, all the way) tells nothing.
+      const auto u = static_cast<std::size_t>(scene_.pixel_u[k]);
+      for (std::size_t v = static_cast<std::size_t>(scene_.pixel_v[k]) + 1;
+           v <= static_cast<std::size_t>(scene_.pixel_v[k]) + kHiddenLookPx; ++v) {
+        if (v >= rows) {  // the image ends below it: its support is out of view
+          ++cluster_foot_[ci];
+          ++cluster_hidden_foot_[ci];
+          break;
+        }
+        const int j = pixel_voxel_[v * width + u];
+        if (j < 0 || scene_.cluster[static_cast<std::size_t>(j)] == c) continue;
+        ++cluster_foot_[ci];
+        const int cj = scene_.cluster[static_cast<std::size_t>(j)];
+        if (cj >= 0 && cluster_renumber_[static_cast<std::size_t>(cj)] == 1 &&
+            scene_.positions[static_cast<std::size_t>(j)].z() < p.z() - kNearer) {
+          ++cluster_hidden_foot_[ci];
+        }
+        break;
+      }
+    }
+    bool changed = false;
+    for (std::size_t c = 0; c < clusters; ++c) {
+      if (cluster_renumber_[c] == -1 && cluster_foot_[c] > 0 && 2 * cluster_hidden_foot_[c] >= cluster_foot_[c]) {
+        cluster_renumber_[c] = 1;
+        changed = true;
+      }
+    }
+    if (!changed) break;
   }
   // Clusters keep their order (numbered by their first voxel) without the dropped ones.
-  cluster_renumber_.assign(clusters, -1);
   int kept = 0;
-  for (std::size_t c = 0; c < clusters; ++c) {
-    if (static_cast<float>(cluster_inside_[c]) >= options_.prism_min_share * static_cast<float>(cluster_total_[c])) {
-      cluster_renumber_[c] = kept++;
-    }
-  }
+  for (std::size_t c = 0; c < clusters; ++c) cluster_renumber_[c] = cluster_renumber_[c] == 1 ? kept++ : -1;
   stats_.clusters_off_table = scene_.num_clusters - kept;
   for (int& c : scene_.cluster) {
     if (c >= 0) c = cluster_renumber_[static_cast<std::size_t>(c)];

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "mfot/object_discovery.hpp"
@@ -81,6 +82,93 @@ std::vector<Body> pile() {
   return b;
 }
 
+// A procedural pile of `count` objects (seeded): rows of touching boxes and cans across the table, front to back
+// (each row's front faces on the line behind the row before, so rows touch where the depths agree), the first row
+// starting beyond the image's left border; some boxes carry a flat box lying on them (turned up to 10 degrees),
+// some tall boxes have a thin box leaning on their right face. Neighbours differ in colour (a palette of twelve).
+// across: the rows run from beyond the image's bottom edge to the table's back edge instead, cutting the visible
+// table top in two.
+std::vector<Body> random_pile(std::uint64_t seed, int count, bool across) {
+  std::mt19937_64 rng(seed);
+  const auto u = [&](float a, float b) { return std::uniform_real_distribution<float>(a, b)(rng); };
+  const Rgb8 palette[12] = {{200, 30, 35},   {35, 160, 60},  {35, 70, 200},  {235, 205, 35},
+                            {190, 40, 165},  {30, 175, 195}, {240, 115, 20}, {105, 50, 165},
+                            {235, 235, 230}, {35, 35, 40},   {150, 215, 45}, {240, 140, 180}};
+  int last_color = -1;
+  const auto color = [&] {
+    int c = last_color;
+    while (c == last_color) c = static_cast<int>(rng() % 12);
+    last_color = c;
+    return palette[c];
+  };
+  std::vector<Body> b;
+  constexpr float kLeft = -0.60f, kRight = 0.36f;
+  float front = -0.14f, row_depth = 0.f, cursor = kLeft;
+  float tall_right = -1.f, tall_height = 0.f;  // the last box's right face and height, if it may take a leaner
+  while (static_cast<int>(b.size()) < count) {
+    if (cursor > kRight) {  // a new row behind
+      front += row_depth + kGap;
+      row_depth = 0.f;
+      cursor = kLeft + u(0.f, 0.12f);
+      tall_right = -1.f;
+    }
+    const float r = u(0.f, 1.f);
+    if (tall_right > 0.f && r < 0.2f) {  // a thin box leaning on the last box's right face
+      const float tilt_deg = u(12.f, 25.f), tilt = tilt_deg * kPi / 180.f;
+      const float h = std::min(tall_height * 0.95f / std::cos(tilt), u(0.10f, 0.16f)), t = u(0.02f, 0.035f);
+      const float depth = u(0.06f, 0.10f);
+      b.push_back(box(t, depth, h,
+                      at(tall_right + kGap + 0.5f * h * std::sin(tilt) + t * std::cos(tilt), front + 0.5f * depth,
+                         0.5f * h * std::cos(tilt), 0.f, -tilt_deg),
+                      color()));
+      cursor = tall_right + h * std::sin(tilt) + t * std::cos(tilt) + 2 * kGap;
+      row_depth = std::max(row_depth, depth);
+      tall_right = -1.f;
+      continue;
+    }
+    tall_right = -1.f;
+    if (r < 0.6f) {
+      const float sx = u(0.05f, 0.14f), sy = u(0.05f, 0.12f), sz = u(0.04f, 0.20f);
+      b.push_back(box(sx, sy, sz, at(cursor + kGap + 0.5f * sx, front + 0.5f * sy, 0.5f * sz), color()));
+      cursor += sx + kGap;
+      row_depth = std::max(row_depth, sy);
+      if (sz >= 0.12f) {
+        tall_right = cursor;
+        tall_height = sz;
+      } else if (static_cast<int>(b.size()) < count && sx >= 0.08f && sy >= 0.07f && u(0.f, 1.f) < 0.5f) {
+        // a flat box (a book) lying on it, inside its footprint
+        const float fx = sx * u(0.6f, 0.85f), fy = sy * u(0.6f, 0.85f), fz = u(0.015f, 0.035f);
+        const Eigen::Vector3f c = b.back().world.translation();
+        b.push_back(box(fx, fy, fz, at(c.x(), c.y(), sz + kGap + 0.5f * fz, u(-10.f, 10.f)), color()));
+      }
+    } else {
+      const float d = u(0.05f, 0.09f), h = u(0.06f, 0.16f);
+      b.push_back(can(d, h, at(cursor + kGap + 0.5f * d, front + 0.5f * d, 0.5f * h), color()));
+      cursor += d + kGap;
+      row_depth = std::max(row_depth, d);
+    }
+  }
+  if (across) {  // turned a quarter about the vertical: x -> y (shifted to start below the image), y -> -x
+    Eigen::Isometry3f turn = Eigen::Isometry3f::Identity();
+    turn.linear() = Eigen::AngleAxisf(kPi / 2, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+    turn.translation() = Eigen::Vector3f(0.f, 0.2f, 0.f);
+    for (Body& body : b) body.world = turn * body.world;
+  }
+  return b;
+}
+
+// A wall of touching boxes from the image's bottom edge to the back of the table, cutting the visible table in two.
+std::vector<Body> wall() {
+  std::vector<Body> b;
+  const Rgb8 colors[4] = {{200, 30, 35}, {35, 160, 60}, {35, 70, 200}, {235, 205, 35}};
+  for (int k = 0; k < 12; ++k) {
+    const float depth = 0.10f;
+    b.push_back(box(0.12f, depth, 0.10f + 0.02f * (k % 3),
+                    at(0.f, -0.45f + k * (depth + kGap), 0.05f + 0.01f * (k % 3)), colors[k % 4]));
+  }
+  return b;
+}
+
 // The simulator's camera: 1 m from (0, 0.05, 0), 45 degrees down.
 Eigen::Isometry3f world_to_camera() {
   const Eigen::Vector3f target(0.f, 0.05f, 0.f);
@@ -125,6 +213,10 @@ struct PileResult {
   float unassigned = 0;  // share of the objects' voxels in no object
   double ms = 0;         // the first frame's ObjectManager::process (discovery included)
   std::vector<int> missed;
+  // Where the objects' voxels in no object were lost: in no accepted cluster (preprocessing: too small, off the
+  // table's prism) or in a cluster but given no object (the manager: a part under min_object_points).
+  int lost_in_preprocessing = 0, lost_in_manager = 0;
+  int missed_merged = 0, missed_split = 0, missed_unassigned = 0;  // why the missed objects were missed
 };
 
 PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t noise_seed) {
@@ -147,10 +239,43 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<std::int32_t> labels = manager.process(points, cloud.cluster, {}).labels;
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (const char* dump = std::getenv("MFOT_PILE_DUMP"); dump != nullptr) {  // colour | truth | objects, one PPM
+    const int w = frame.intrinsics.width, h = frame.intrinsics.height;
+    const auto voxel_of_pixel = preprocessor.pixel_voxel_index();
+    std::FILE* f = std::fopen(
+        (std::string(dump) + "/pile" + std::to_string(bodies.size()) + "_" + std::to_string(noise_seed) + ".ppm")
+            .c_str(),
+        "wb");
+    std::fprintf(f, "P6\n%d %d\n255\n", 3 * w, h);
+    const auto shade = [](int label, unsigned char* rgb) {
+      const auto hash = static_cast<std::uint32_t>(label) * 2654435761u;
+      for (int c = 0; c < 3; ++c) rgb[c] = label == 0 ? 0 : static_cast<unsigned char>(64 + ((hash >> (8 * c)) & 0xbf));
+    };
+    for (int v = 0; v < h; ++v) {
+      for (int panel = 0; panel < 3; ++panel) {
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+          unsigned char rgb[3] = {0, 0, 0};
+          const int voxel = i < voxel_of_pixel.size() ? voxel_of_pixel[i] : -1;
+          if (panel == 0) {
+            rgb[0] = frame.color[i].r, rgb[1] = frame.color[i].g, rgb[2] = frame.color[i].b;
+          } else if (panel == 1) {
+            shade(frame.depth_mm[i] > 0 ? frame.labels[i] : 0, rgb);
+          } else if (voxel >= 0) {
+            shade(labels[static_cast<std::size_t>(voxel)], rgb);
+            if (labels[static_cast<std::size_t>(voxel)] == 0)
+              rgb[0] = rgb[1] = rgb[2] = cloud.cluster[static_cast<std::size_t>(voxel)] < 0 ? 255 : 110;
+          }
+          std::fwrite(rgb, 1, 3, f);
+        }
+      }
+    }
+    std::fclose(f);
+  }
 
   std::map<int, int> truth_size, object_size, object_table;
   std::map<std::pair<int, int>, int> overlap;
-  int object_voxels = 0, unassigned = 0;
+  int object_voxels = 0, unassigned = 0, r_lost_pre = 0, r_lost_manager = 0;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const int truth =
         frame.labels[static_cast<std::size_t>(cloud.pixel_v[i]) * frame.intrinsics.width + cloud.pixel_u[i]];
@@ -158,7 +283,10 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
     if (truth != 0) {
       ++truth_size[truth];
       ++object_voxels;
-      if (label == 0) ++unassigned;
+      if (label == 0) {
+        ++unassigned;
+        ++(cloud.cluster[i] < 0 ? r_lost_pre : r_lost_manager);
+      }
     }
     if (label != 0) {
       ++object_size[label];
@@ -168,6 +296,8 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
   }
   PileResult r;
   r.ms = ms;
+  r.lost_in_preprocessing = r_lost_pre;
+  r.lost_in_manager = r_lost_manager;
   r.objects = static_cast<int>(truth_size.size());
   for (const auto& [truth, size] : truth_size) {
     double best = 0.0;
@@ -186,6 +316,22 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
       ++r.found;
     } else {
       r.missed.push_back(truth);
+      // the object holding most of it: also holding most of another object (merged), or holding under half of it
+      // with other objects holding the rest (split), or none holding half of it (left in no object)
+      int held = 0, top = 0, top_label = 0;
+      for (const auto& [key, count] : overlap) {
+        if (key.first != truth) continue;
+        held += count;
+        if (count > top) top = count, top_label = key.second;
+      }
+      if (2 * held < size) {
+        ++r.missed_unassigned;
+      } else if (2 * top < size) {
+        ++r.missed_split;
+      } else {
+        (void)top_label;
+        ++r.missed_merged;
+      }
     }
   }
   for (const auto& [label, size] : object_size) r.spurious += 2 * object_table[label] > size ? 1 : 0;
@@ -196,7 +342,9 @@ PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t no
 ::testing::Message describe(const PileResult& r) {
   ::testing::Message m;
   m << r.found << " of " << r.objects << " found, " << r.spurious << " spurious, " << 100.f * r.unassigned
-    << " % of the objects' voxels in no object, " << r.ms << " ms; missed:";
+    << " % of the objects' voxels in no object (" << r.lost_in_preprocessing << " in no cluster, " << r.lost_in_manager
+    << " in no part), " << r.ms << " ms; missed " << r.missed_merged << " merged, " << r.missed_split << " split, "
+    << r.missed_unassigned << " in no object:";
   for (const int k : r.missed) m << " " << k;
   return m;
 }
@@ -218,6 +366,44 @@ TEST(PileDiscovery, ObjectsOfATouchingPileAreFound) {
     objects += r.objects;
   }
   EXPECT_GE(found, 0.95 * objects) << found << " of " << objects;
+}
+
+// Procedural piles of twenty objects (random_pile, seeds 1-12): rows of touching boxes and cans from beyond the image's
+// left border (even seeds: from below its bottom edge to the table's back), books lying on boxes, boxes leaning on
+// tall ones, rows hiding the ones behind.
+TEST(PileDiscovery, ProceduralPilesOfTwentyObjects) {
+  int found = 0, objects = 0, spurious = 0;
+  double ms_max = 0.0;
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    const PileResult r = first_frame_objects(random_pile(seed, 20, seed % 2 == 0), seed);
+    std::printf("[procedural pile] seed %llu: %s\n", static_cast<unsigned long long>(seed),
+                describe(r).GetString().c_str());
+    found += r.found;
+    objects += r.objects;
+    spurious += r.spurious;
+    ms_max = std::max(ms_max, r.ms);
+  }
+  std::printf("[procedural pile] %d of %d found (%.1f %%), %d spurious, slowest %.1f ms\n", found, objects,
+              100.0 * found / objects, spurious, ms_max);
+  // 168 of 220 (76.4 %); with the largest inlier region alone as the table 113 (51.4 %), 2 % to 83 % of a pile's
+  // voxels in no cluster where it cut the table in two; resting on the spanned table where seen, 153 (69.5 %). Most
+  // of the rest are merged (touching boxes whose front faces lie flush in one plane).
+  EXPECT_GE(found, 165) << found << " of " << objects;
+  EXPECT_EQ(spurious, 0);
+}
+
+// A pile cuts the visible table top in two: it rests on the table between the two halves and stands on it. With the
+// largest inlier region alone as the table, every box was off it: 0 of 12 found, 100 % in no object. Of the 12, the
+// front box (cut by the image's bottom edge) and a box mostly hidden behind the next may join a neighbour.
+TEST(PileDiscovery, APileAcrossTheTableStandsOnIt) {
+  const std::vector<Body> bodies = wall();
+  const PileResult r = first_frame_objects(bodies, 1);
+  SCOPED_TRACE(describe(r));
+  std::printf("[wall] %s\n", describe(r).GetString().c_str());
+  EXPECT_EQ(r.objects, static_cast<int>(bodies.size()));
+  EXPECT_GE(r.found, r.objects - 2);
+  EXPECT_EQ(r.spurious, 0);
+  EXPECT_LE(r.unassigned, 0.02f);
 }
 
 }  // namespace

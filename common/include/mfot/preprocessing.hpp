@@ -25,7 +25,13 @@
 //      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
 //      polygon; a cluster with less than prism_min_share of its voxels above
 //      it (a wall, shelves or people beside the table) is no cluster (-1): it never becomes an
-//      object. The margin of step 3 grows with depth as the sensor's noise does: at least
+//      object, unless it rests on the table: prism_min_share of it lies above the hull of every
+//      inlier region of at least a quarter of the largest's samples (a pile, or an arm reaching
+//      over the table, cuts the visible top into such regions) and either its lowest voxel lies
+//      within 2 cm of the height below which step 3 removed the table (standing on it, not held
+//      above), or at least half of its foot (its voxels within 1 cm of its lowest) is hidden: just
+//      below each in the image lies, first, a nearer voxel of a cluster that stands (an object
+//      behind a pile's front ones; repeated while clusters join), or the image's bottom edge. The margin of step 3 grows with depth as the sensor's noise does: at least
 //      plane_margin_sigmas x sigma(z), sigma(z) = base + quadratic (z - reference)^2 (Nguyen, Izadi,
 //      Lovell 2012, Kinect v1), so a far table's noise does not become objects.
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
@@ -344,7 +350,13 @@ class Preprocessor {
   Eigen::Vector3f table_axis_v_ = Eigen::Vector3f::UnitY();
   std::vector<Eigen::Vector2f> table_samples_;
   std::vector<Eigen::Vector2f> table_hull_;
+  std::vector<Eigen::Vector2f> table_span_samples_;
+  std::vector<Eigen::Vector2f> table_span_hull_;
   std::vector<int> cluster_inside_;
+  std::vector<int> cluster_spanned_;
+  std::vector<float> cluster_rest_gap_;
+  std::vector<int> cluster_foot_;
+  std::vector<int> cluster_hidden_foot_;
   std::vector<int> cluster_total_;
   std::vector<int> cluster_renumber_;
 
