@@ -15,8 +15,6 @@
 //      the part of their nearest point in a part, so tiny pieces never become objects;
 //   5. parts are numbered by their first point. Fewer than two parts: the cluster is one object.
 
-#include "mfot/object_discovery.hpp"
-
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
@@ -27,6 +25,8 @@
 #include <cstdint>
 #include <map>
 #include <unordered_map>
+
+#include "mfot/object_discovery.hpp"
 
 namespace mfot {
 namespace {

@@ -2,12 +2,12 @@
 
 #include "mfot/carry_monitor.hpp"
 
-#include "mfot/option_range.hpp"
-
 #include <algorithm>
 #include <limits>
 #include <numbers>
 #include <tuple>
+
+#include "mfot/option_range.hpp"
 
 namespace mfot {
 

@@ -1,9 +1,9 @@
 #include "mfot/companion_motion.hpp"
 
+#include <numbers>
+
 #include "mfot/option_range.hpp"
 #include "mfot/particle_filter.hpp"
-
-#include <numbers>
 
 namespace mfot {
 

@@ -66,8 +66,8 @@ void select_hypothesis_points(const ColoredCloud& scene, const Eigen::AlignedBox
 }
 
 void select_hypothesis_data(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
-                            const ObjectModel& model, const Pose& last_estimate,
-                            const HypothesisOptions& options, HypothesisData& out) {
+                            const ObjectModel& model, const Pose& last_estimate, const HypothesisOptions& options,
+                            HypothesisData& out) {
   select_hypothesis_data(scene, scene_features, model_bounding_box(model), last_estimate, options, out);
 }
 

@@ -3,7 +3,6 @@
 #include "mfot/icp_refinement.hpp"
 
 #include <Eigen/SVD>
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -16,7 +15,8 @@ void IcpRefinementOptions::validate(const std::string& owner) const {
     throw std::invalid_argument(owner + ".iterations must be in [0, 50], got " + std::to_string(iterations));
   }
   if (!(max_distance > 0.f && max_distance <= 0.1f)) {
-    throw std::invalid_argument(owner + ".max_distance must be in (0, 0.1] metres, got " + std::to_string(max_distance));
+    throw std::invalid_argument(owner + ".max_distance must be in (0, 0.1] metres, got " +
+                                std::to_string(max_distance));
   }
   if (!(min_paired_share >= 0.f && min_paired_share <= 1.f)) {
     throw std::invalid_argument(owner + ".min_paired_share must be in [0, 1], got " + std::to_string(min_paired_share));
@@ -26,7 +26,8 @@ void IcpRefinementOptions::validate(const std::string& owner) const {
                                 std::to_string(max_translation));
   }
   if (!(max_rotation >= 0.f && max_rotation <= std::numbers::pi_v<float>)) {
-    throw std::invalid_argument(owner + ".max_rotation must be in [0, pi] radians, got " + std::to_string(max_rotation));
+    throw std::invalid_argument(owner + ".max_rotation must be in [0, pi] radians, got " +
+                                std::to_string(max_rotation));
   }
   if (!(max_points >= 3 && max_points <= 1000000)) {
     throw std::invalid_argument(owner + ".max_points must be in [3, 1000000], got " + std::to_string(max_points));
@@ -130,7 +131,7 @@ void IcpRefinement::weigh_anchors() {
       anchors += anchor ? 1 : 0;
     }
   }
-  if (anchors == 0) {  // the first model, or one rebuilt in a new frame: it is the first view
+  if (anchors == 0) {                       // the first model, or one rebuilt in a new frame: it is the first view
     first_view_hash_.build(hashed_model_);  // the hash keeps its own copy of the points
     anchors = hashed_model_.size();
   }
@@ -206,7 +207,8 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
                             Eigen::Isometry3f& pose, IcpResult& result) {
   result.sampled = sample.size();
   bounds_.resize(sample.size());
-  const auto needed = static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
+  const auto needed =
+      static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
   for (int iteration = 0; iteration < count; ++iteration) {
     const Eigen::Isometry3f to_object = pose.inverse();
     paired_model_.clear();

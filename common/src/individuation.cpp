@@ -16,7 +16,9 @@ const Options& validated(const Options& options) {
   return options;
 }
 
-bool is_finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
+bool is_finite(const Eigen::Vector3f& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+}
 
 }  // namespace
 
@@ -24,7 +26,8 @@ bool is_finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::i
 
 void EuclideanClusterOptions::validate() const {
   if (!(tolerance > 0.f && tolerance <= 1.f)) {
-    throw std::invalid_argument("EuclideanClusterOptions.tolerance must be in (0, 1] metres, got " + std::to_string(tolerance));
+    throw std::invalid_argument("EuclideanClusterOptions.tolerance must be in (0, 1] metres, got " +
+                                std::to_string(tolerance));
   }
   if (min_cluster_size < 1) throw std::invalid_argument("EuclideanClusterOptions.min_cluster_size must be >= 1");
 }
@@ -71,7 +74,8 @@ void unassigned_shares(const ClusterSet& clusters, std::span<const std::int32_t>
     const auto members = clusters.cluster(k);
     std::size_t unassigned = 0;
     for (const int i : members) {
-      if (static_cast<std::size_t>(i) >= labels.size()) throw std::invalid_argument("unassigned_shares: labels shorter than the clustered points");
+      if (static_cast<std::size_t>(i) >= labels.size())
+        throw std::invalid_argument("unassigned_shares: labels shorter than the clustered points");
       if (labels[static_cast<std::size_t>(i)] == 0) ++unassigned;
     }
     out[k] = members.empty() ? 0.f : static_cast<float>(unassigned) / static_cast<float>(members.size());
@@ -82,13 +86,15 @@ void unassigned_shares(const ClusterSet& clusters, std::span<const std::int32_t>
 
 void NewObjectOptions::validate() const {
   if (!(min_unassigned_share > 0.f && min_unassigned_share <= 1.f)) {
-    throw std::invalid_argument("NewObjectOptions.min_unassigned_share must be in (0, 1], got " + std::to_string(min_unassigned_share));
+    throw std::invalid_argument("NewObjectOptions.min_unassigned_share must be in (0, 1], got " +
+                                std::to_string(min_unassigned_share));
   }
   if (confirm_frames < 1) {
     throw std::invalid_argument("NewObjectOptions.confirm_frames must be >= 1, got " + std::to_string(confirm_frames));
   }
   if (!(match_distance > 0.f && match_distance <= 1.f)) {
-    throw std::invalid_argument("NewObjectOptions.match_distance must be in (0, 1] metres, got " + std::to_string(match_distance));
+    throw std::invalid_argument("NewObjectOptions.match_distance must be in (0, 1] metres, got " +
+                                std::to_string(match_distance));
   }
   if (!(min_overlap > 0.f && min_overlap <= 1.f)) {
     throw std::invalid_argument("NewObjectOptions.min_overlap must be in (0, 1], got " + std::to_string(min_overlap));
@@ -161,7 +167,8 @@ void NewObjectDetector::update(std::span<const Eigen::Vector3f> points, const Cl
   const auto take_points = [&](Candidate& candidate, int k) {
     candidate.cluster = k;
     candidate.points.clear();
-    for (const int i : clusters.cluster(static_cast<std::size_t>(k))) candidate.points.push_back(points[static_cast<std::size_t>(i)]);
+    for (const int i : clusters.cluster(static_cast<std::size_t>(k)))
+      candidate.points.push_back(points[static_cast<std::size_t>(i)]);
   };
   std::vector<Candidate> next;
   for (std::size_t c = 0; c < candidates_.size(); ++c) {
@@ -192,7 +199,8 @@ void NewObjectDetector::update(std::span<const Eigen::Vector3f> points, const Cl
 // ---- lost objects ----------------------------------------------------------------------------
 
 void SupportLossOptions::validate() const {
-  if (max_frames < 1) throw std::invalid_argument("SupportLossOptions.max_frames must be >= 1, got " + std::to_string(max_frames));
+  if (max_frames < 1)
+    throw std::invalid_argument("SupportLossOptions.max_frames must be >= 1, got " + std::to_string(max_frames));
 }
 
 SupportMonitor::SupportMonitor(const SupportLossOptions& options) : options_(validated(options)) {}

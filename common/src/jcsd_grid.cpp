@@ -5,12 +5,12 @@
 
 #include "mfot/jcsd_grid.hpp"
 
-#include "mfot/likelihood.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -25,9 +25,8 @@ void validate(const JcsdGridOptions& options) {
   }
 }
 
-JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
-                         std::span<const SmrFeature> features, const JcsdGridOptions& options,
-                         JcsdBuildStats* stats) {
+JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions, std::span<const SmrFeature> features,
+                         const JcsdGridOptions& options, JcsdBuildStats* stats) {
   validate(options);
   if (positions.size() != features.size()) {
     throw std::invalid_argument("build_jcsd_grid: positions and features differ in length");
@@ -81,15 +80,14 @@ JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
       const int cy = cell[1] + ((corner >> 1) & 1);
       const int cz = cell[2] + ((corner >> 2) & 1);
       const Eigen::Vector3f s =
-          grid.origin + r * Eigen::Vector3f(static_cast<float>(cx), static_cast<float>(cy),
-                                            static_cast<float>(cz));
+          grid.origin + r * Eigen::Vector3f(static_cast<float>(cx), static_cast<float>(cy), static_cast<float>(cz));
       const float kernel = std::max(r - (s - positions[k]).norm(), 0.f) * inv_r;  // 3.12
       ++kernel_evaluations;
       if (kernel == 0.f) continue;
       const float w = inv_n * kernel;
-      float* J = grid.values.data() +
-                 (static_cast<std::size_t>(cz) * stride_z + static_cast<std::size_t>(cy) * stride_y +
-                  static_cast<std::size_t>(cx)) * kSmrBins;
+      float* J = grid.values.data() + (static_cast<std::size_t>(cz) * stride_z +
+                                       static_cast<std::size_t>(cy) * stride_y + static_cast<std::size_t>(cx)) *
+                                          kSmrBins;
       J[h.hue_bin] += w * h.hue_weight_lo;
       J[bin_hi] += w * h.hue_weight_hi;
       J[h.gray_bin] += w * h.gray_weight;
@@ -102,8 +100,7 @@ JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
   return grid;
 }
 
-JcsdGrid build_jcsd_grid(const ObjectModel& model, const JcsdGridOptions& options,
-                         JcsdBuildStats* stats) {
+JcsdGrid build_jcsd_grid(const ObjectModel& model, const JcsdGridOptions& options, JcsdBuildStats* stats) {
   if (model.cloud.size() != model.features.size()) {
     throw std::invalid_argument("build_jcsd_grid: model.cloud and model.features differ in length");
   }
@@ -128,11 +125,11 @@ float jcsd_point_score(const JcsdGrid& grid, const Eigen::Vector3f& p_object, co
     const int oy = (corner >> 1) & 1;
     const int oz = (corner >> 2) & 1;
     // 3.18: the weight of a corner is the product over axes of (1 - |z - s| / l).
-    const float weight = (ox ? frac[0] : 1.f - frac[0]) * (oy ? frac[1] : 1.f - frac[1]) *
-                         (oz ? frac[2] : 1.f - frac[2]);
+    const float weight =
+        (ox ? frac[0] : 1.f - frac[0]) * (oy ? frac[1] : 1.f - frac[1]) * (oz ? frac[2] : 1.f - frac[2]);
     const std::size_t index =
-        ((static_cast<std::size_t>(cell[2] + oz) * grid.dims[1] + (cell[1] + oy)) * grid.dims[0] +
-         (cell[0] + ox)) * kSmrBins;
+        ((static_cast<std::size_t>(cell[2] + oz) * grid.dims[1] + (cell[1] + oy)) * grid.dims[0] + (cell[0] + ox)) *
+        kSmrBins;
     float correlation = 0.f;  // 3.19
     for (int c = 0; c < kSmrBins; ++c) correlation += dense[c] * grid.values[index + c];
     score += weight * correlation;

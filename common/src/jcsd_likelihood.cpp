@@ -23,9 +23,9 @@
 namespace mfot {
 namespace {
 
-constexpr std::size_t kLanes = 8;    // points mapped at once; the point count is padded to a multiple
-constexpr std::size_t kBatch = 64;   // points mapped before they are interpolated (a multiple of kLanes)
-constexpr std::size_t kSums = 2;     // interleaved per-bin sums: point j goes to sum j % 2 (even, odd)
+constexpr std::size_t kLanes = 8;   // points mapped at once; the point count is padded to a multiple
+constexpr std::size_t kBatch = 64;  // points mapped before they are interpolated (a multiple of kLanes)
+constexpr std::size_t kSums = 2;    // interleaved per-bin sums: point j goes to sum j % 2 (even, odd)
 static_assert(kBatch % kLanes == 0 && kLanes % kSums == 0);
 
 void validate(const JcsdLikelihoodOptions& options) {
@@ -142,12 +142,12 @@ void JcsdLikelihood::copy_corners() {
   // A point outside the grid reads corners outside_corner_ + {0, 1} + {0, dims[0]} + {0, dims[0] * dims[1]}.
   const std::size_t tail = static_cast<std::size_t>(grid_.dims[0]) * (grid_.dims[1] + 1) + 2;
   corners_.assign(corners + tail, Bins{});
-  for (std::size_t s = 0; s < corners; ++s) std::copy_n(grid_.values.data() + s * kSmrBins, kSmrBins, corners_[s].values);
+  for (std::size_t s = 0; s < corners; ++s)
+    std::copy_n(grid_.values.data() + s * kSmrBins, kSmrBins, corners_[s].values);
   outside_corner_ = static_cast<std::int32_t>(corners);
 }
 
-void JcsdLikelihood::evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                              std::span<float> scores) {
+void JcsdLikelihood::evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) {
   if (scores.size() != particles.size()) {
     throw std::invalid_argument("JcsdLikelihood::evaluate: scores.size() != particles.size()");
   }
@@ -235,13 +235,16 @@ float JcsdLikelihood::score_particle(const Pose& particle) const {
       const __m256 fz = _mm256_floor_ps(uz);
       // False for NaN too.
       __m256 inside = _mm256_and_ps(_mm256_cmp_ps(fx, zero, _CMP_GE_OQ), _mm256_cmp_ps(fx, vmax_x, _CMP_LE_OQ));
-      inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fy, zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, vmax_y, _CMP_LE_OQ)));
-      inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(fz, zero, _CMP_GE_OQ), _mm256_cmp_ps(fz, vmax_z, _CMP_LE_OQ)));
-      const __m256i base = _mm256_add_epi32(
-          _mm256_cvttps_epi32(fx),
-          _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fy), vsy), _mm256_mullo_epi32(_mm256_cvttps_epi32(fz), vsz)));
-      _mm256_store_si256(reinterpret_cast<__m256i*>(cell.data() + k),
-                         _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(voutside), _mm256_castsi256_ps(base), inside)));
+      inside = _mm256_and_ps(inside,
+                             _mm256_and_ps(_mm256_cmp_ps(fy, zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, vmax_y, _CMP_LE_OQ)));
+      inside = _mm256_and_ps(inside,
+                             _mm256_and_ps(_mm256_cmp_ps(fz, zero, _CMP_GE_OQ), _mm256_cmp_ps(fz, vmax_z, _CMP_LE_OQ)));
+      const __m256i base =
+          _mm256_add_epi32(_mm256_cvttps_epi32(fx), _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fy), vsy),
+                                                                     _mm256_mullo_epi32(_mm256_cvttps_epi32(fz), vsz)));
+      _mm256_store_si256(
+          reinterpret_cast<__m256i*>(cell.data() + k),
+          _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(voutside), _mm256_castsi256_ps(base), inside)));
       _mm256_store_ps(tx.data() + k, _mm256_and_ps(_mm256_sub_ps(ux, fx), inside));
       _mm256_store_ps(ty.data() + k, _mm256_and_ps(_mm256_sub_ps(uy, fy), inside));
       _mm256_store_ps(tz.data() + k, _mm256_and_ps(_mm256_sub_ps(uz, fz), inside));
@@ -279,7 +282,8 @@ float JcsdLikelihood::score_particle(const Pose& particle) const {
       const float fy = std::floor(uy);
       const float fz = std::floor(uz);
       if (fx >= 0.f && fx <= max_x && fy >= 0.f && fy <= max_y && fz >= 0.f && fz <= max_z) {
-        cell[k] = static_cast<std::int32_t>(fx) + static_cast<std::int32_t>(fy) * sy + static_cast<std::int32_t>(fz) * sz;
+        cell[k] =
+            static_cast<std::int32_t>(fx) + static_cast<std::int32_t>(fy) * sy + static_cast<std::int32_t>(fz) * sz;
         tx[k] = ux - fx;
         ty[k] = uy - fy;
         tz[k] = uz - fz;

@@ -12,8 +12,7 @@ namespace mfot {
 
 void likelihood_weights(std::span<const float> scores, float lambda, std::span<float> weights) {
   if (!(std::isfinite(lambda) && lambda > 0.f)) {
-    throw std::invalid_argument("likelihood_weights: lambda must be finite and > 0, got " +
-                                std::to_string(lambda));
+    throw std::invalid_argument("likelihood_weights: lambda must be finite and > 0, got " + std::to_string(lambda));
   }
   if (scores.size() != weights.size()) {
     throw std::invalid_argument("likelihood_weights: scores and weights differ in length");

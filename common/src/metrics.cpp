@@ -25,10 +25,12 @@ const FittingDistanceOptions& validated(const FittingDistanceOptions& options) {
 
 void FittingDistanceOptions::validate() const {
   if (!(occlusion_window > 0.f && occlusion_window <= 0.1f)) {
-    throw std::invalid_argument("FittingDistanceOptions.occlusion_window must be in (0, 0.1], got " + std::to_string(occlusion_window));
+    throw std::invalid_argument("FittingDistanceOptions.occlusion_window must be in (0, 0.1], got " +
+                                std::to_string(occlusion_window));
   }
   if (!(depth_margin >= 0.f && depth_margin <= 1.f)) {
-    throw std::invalid_argument("FittingDistanceOptions.depth_margin must be in [0, 1] metres, got " + std::to_string(depth_margin));
+    throw std::invalid_argument("FittingDistanceOptions.depth_margin must be in [0, 1] metres, got " +
+                                std::to_string(depth_margin));
   }
 }
 
@@ -73,13 +75,15 @@ FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector
 
 // ---- segmentation accuracy -------------------------------------------------------------------
 
-void SegmentationAccuracy::add_frame(std::span<const std::int32_t> predicted, std::span<const std::int32_t> ground_truth) {
+void SegmentationAccuracy::add_frame(std::span<const std::int32_t> predicted,
+                                     std::span<const std::int32_t> ground_truth) {
   if (predicted.size() != ground_truth.size()) {
     throw std::invalid_argument("SegmentationAccuracy: predicted and ground-truth labels must have one size");
   }
   std::map<Pair, std::uint64_t> frame;
   for (std::size_t i = 0; i < predicted.size(); ++i) {
-    if (predicted[i] < 0 || ground_truth[i] < 0) throw std::invalid_argument("SegmentationAccuracy: labels must be >= 0");
+    if (predicted[i] < 0 || ground_truth[i] < 0)
+      throw std::invalid_argument("SegmentationAccuracy: labels must be >= 0");
     ++frame[{predicted[i], ground_truth[i]}];
   }
   auto& pairs = frame_pairs_.emplace_back();
@@ -181,16 +185,17 @@ std::vector<PoseError> relative_pose_errors(std::span<const Pose> predicted, std
   const Eigen::Vector3d centre = ground_truth.front().translation.cast<double>();
   // The symmetry axis at t0, camera frame.
   const bool symmetric = symmetry_axis.squaredNorm() > 0.f;
-  const Eigen::Vector3d axis = symmetric ? (ground_truth.front().rotation.cast<double>() *
-                                            symmetry_axis.cast<double>().normalized())
-                                         : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d axis =
+      symmetric ? (ground_truth.front().rotation.cast<double>() * symmetry_axis.cast<double>().normalized())
+                : Eigen::Vector3d::Zero();
   for (std::size_t t = 0; t < predicted.size(); ++t) {
     const Motion p = motion_from(predicted.front(), predicted[t]);
     const Motion g = motion_from(ground_truth.front(), ground_truth[t]);
     const Eigen::Quaterniond delta = g.rotation.conjugate() * p.rotation;
     // Angle from the quaternion as 2 atan2(|v|, |w|): accurate for small angles, too.
     const double angle = 2.0 * std::atan2(delta.vec().norm(), std::abs(delta.w()));
-    errors[t].translation_mm = ((p.rotation * centre + p.translation) - (g.rotation * centre + g.translation)).norm() * 1000.0;
+    errors[t].translation_mm =
+        ((p.rotation * centre + p.translation) - (g.rotation * centre + g.translation)).norm() * 1000.0;
     errors[t].translation_at_camera_mm = (p.translation - g.translation).norm() * 1000.0;
     errors[t].rotation_deg = angle * 180.0 / std::numbers::pi;
     errors[t].observable_rotation_deg = errors[t].rotation_deg;
@@ -255,7 +260,8 @@ void SegmentMatchOptions::validate() const {
     throw std::invalid_argument("SegmentMatchOptions.found_iou must be in (0, 1], got " + std::to_string(found_iou));
   }
   if (!(part_share > 0.0 && part_share <= 0.5)) {
-    throw std::invalid_argument("SegmentMatchOptions.part_share must be in (0, 0.5], got " + std::to_string(part_share));
+    throw std::invalid_argument("SegmentMatchOptions.part_share must be in (0, 0.5], got " +
+                                std::to_string(part_share));
   }
 }
 
@@ -285,8 +291,8 @@ SegmentMatch match_segments(std::span<const std::int32_t> truth, std::span<const
   std::map<std::int32_t, double> best_iou;
   for (const auto& [key, count] : overlap) {
     const auto [segment, object] = key;
-    const double iou = static_cast<double>(count) /
-                       static_cast<double>(segment_size[segment] + object_size[object] - count);
+    const double iou =
+        static_cast<double>(count) / static_cast<double>(segment_size[segment] + object_size[object] - count);
     best_iou[segment] = std::max(best_iou[segment], iou);
     if (count > largest_count[segment]) {
       largest_count[segment] = count;

@@ -2,9 +2,6 @@
 
 #include "mfot/model_registration.hpp"
 
-#include "mfot/hypothesis.hpp"
-#include "mfot/particle_filter.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -14,6 +11,9 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/hypothesis.hpp"
+#include "mfot/particle_filter.hpp"
 
 namespace mfot {
 
@@ -55,7 +55,7 @@ constexpr float kNearSideDepth = 1.f;
 constexpr int kAlignIterations = 3;
 constexpr float kAlignRadius = 0.03f;
 constexpr std::size_t kAlignPoints = 256;
-constexpr float kFirstTranslationStep = 0.01f;                           // metres
+constexpr float kFirstTranslationStep = 0.01f;                                 // metres
 constexpr float kFirstRotationStep = 8.f * std::numbers::pi_v<float> / 180.f;  // radians
 
 }  // namespace
@@ -92,7 +92,8 @@ void ModelRegistration::align_translation(const ObjectModel& model, const Hypoth
       const Eigen::Vector3f local = to_object * (points.points[k] - pose.translation);
       const int nearest = align_hash_.nearest(local, kAlignRadius);
       if (nearest < 0) continue;
-      offset += points.points[k] - (pose.rotation * model.cloud.positions[static_cast<std::size_t>(nearest)] + pose.translation);
+      offset += points.points[k] -
+                (pose.rotation * model.cloud.positions[static_cast<std::size_t>(nearest)] + pose.translation);
       ++matched;
     }
     if (matched == 0) return;
@@ -168,8 +169,9 @@ std::optional<Registration> ModelRegistration::register_model(const ObjectModel&
   std::iota(order.begin(), order.end(), std::size_t{0});
   const auto kept = std::min(order.size(), static_cast<std::size_t>(options_.candidates));
   // Stable on ties: the earlier hypothesis (the prior's) wins.
-  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(kept), order.end(),
-                    [&](std::size_t a, std::size_t b) { return scores_[a] > scores_[b] || (scores_[a] == scores_[b] && a < b); });
+  std::partial_sort(
+      order.begin(), order.begin() + static_cast<std::ptrdiff_t>(kept), order.end(),
+      [&](std::size_t a, std::size_t b) { return scores_[a] > scores_[b] || (scores_[a] == scores_[b] && a < b); });
 
   // 3. Pattern search from each; a pose's score is kept from the evaluation that chose it.
   Pose best;
@@ -186,8 +188,8 @@ std::optional<Registration> ModelRegistration::register_model(const ObjectModel&
       for (std::size_t m = 7; m < kPatternMoves; ++m) align_translation(model, points, 1, moves[m]);
       likelihood_.evaluate(moves, points, move_scores);
       // The first of equal scores wins: the pose stays unless a move scores higher.
-      const auto winner = static_cast<std::size_t>(std::max_element(move_scores.begin(), move_scores.end()) -
-                                                   move_scores.begin());
+      const auto winner =
+          static_cast<std::size_t>(std::max_element(move_scores.begin(), move_scores.end()) - move_scores.begin());
       if (winner == 0) {
         translation *= 0.5f;
         rotation *= 0.5f;

@@ -20,7 +20,8 @@ std::uint64_t uniform_below(std::mt19937_64& rng, std::uint64_t n) {
 }
 
 void check_model(const ObjectModel& model) {
-  if (model.cloud.colors.size() != model.cloud.positions.size() || model.features.size() != model.cloud.positions.size()) {
+  if (model.cloud.colors.size() != model.cloud.positions.size() ||
+      model.features.size() != model.cloud.positions.size()) {
     throw std::invalid_argument("ModelUpdater: the old model's positions, colours and features must have one size");
   }
 }
@@ -95,7 +96,8 @@ ObjectModel ModelUpdater::mix(const ObjectModel& old_model, const ColoredCloud& 
   unseen_.clear();
   if (options_.seen_radius > 0.f && options_.alpha > 0.f && available > 0) {
     segmented_in_object_.clear();
-    for (const int i : new_candidates_) segmented_in_object_.push_back(to_object * source.positions[static_cast<std::size_t>(i)]);
+    for (const int i : new_candidates_)
+      segmented_in_object_.push_back(to_object * source.positions[static_cast<std::size_t>(i)]);
     seen_hash_.build(segmented_in_object_);
     for (std::size_t i = 0; i < old_size; ++i) {
       const bool seen = seen_hash_.any_within(old_model.cloud.positions[i], options_.seen_radius);
@@ -105,7 +107,8 @@ ObjectModel ModelUpdater::mix(const ObjectModel& old_model, const ColoredCloud& 
     for (std::size_t i = 0; i < old_size; ++i) old_candidates_.push_back(static_cast<int>(i));
   }
 
-  std::size_t n_new = std::min(static_cast<std::size_t>(std::llround(static_cast<double>(options_.alpha) * target)), available);
+  std::size_t n_new =
+      std::min(static_cast<std::size_t>(std::llround(static_cast<double>(options_.alpha) * target)), available);
   if (!unseen_.empty() && target <= old_size) n_new = std::min(n_new, old_candidates_.size());
   std::size_t n_old = std::min(target - std::min(target, n_new), old_size);
   n_new = std::min(target - n_old, available);

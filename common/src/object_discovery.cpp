@@ -30,7 +30,8 @@ void DiscoveryOptions::validate() const {
   require_range("color_cut", color_cut, 0.f, 200.f);
   require_range("smoothness_threshold", smoothness_threshold, 0.f, 1.f);
   if (min_part_points < 1) {
-    throw std::invalid_argument("DiscoveryOptions.min_part_points must be >= 1, got " + std::to_string(min_part_points));
+    throw std::invalid_argument("DiscoveryOptions.min_part_points must be >= 1, got " +
+                                std::to_string(min_part_points));
   }
   if (confirm_frames < 0 || confirm_frames > 1000) {
     throw std::invalid_argument("DiscoveryOptions.confirm_frames must be in [0, 1000], got " +

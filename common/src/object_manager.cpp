@@ -1,10 +1,5 @@
 #include "mfot/object_manager.hpp"
 
-#include "mfot/hypothesis.hpp"
-#include "mfot/option_range.hpp"
-#include "mfot/particle_filter.hpp"
-#include "mfot/preprocessing.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -12,6 +7,11 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/hypothesis.hpp"
+#include "mfot/option_range.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 
@@ -31,8 +31,9 @@ void JoinSplitOptions::validate() const {
   in("split_max_occluded", split_max_occluded, 0, 1, false);
   in("split_min_departure", split_min_departure, 0, 1, false);
   if (split_min_departure > 0.f && split_min_gap <= 0.f) {
-    throw std::invalid_argument("JoinSplitOptions.split_min_departure needs split_min_gap > 0: parts are followed from "
-                                "frame to frame within split_min_gap");
+    throw std::invalid_argument(
+        "JoinSplitOptions.split_min_departure needs split_min_gap > 0: parts are followed from "
+        "frame to frame within split_min_gap");
   }
 }
 
@@ -92,7 +93,8 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       refit_(options.refit),
       carry_(options.carry),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)),
-      registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {}
+      registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {
+}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                                                  std::span<const std::int32_t> cluster_of_point,
@@ -185,9 +187,9 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     const ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
     // A carried object is hidden behind its carrier wherever the occlusion test puts it (an object that
     // left the view is held too, but nothing carries it: it retires).
-    hidden_[k] = object.carried_by != 0 ||
-                 scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) >=
-                     options_.hidden_occluded_share;
+    hidden_[k] =
+        object.carried_by != 0 || scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) >=
+                                      options_.hidden_occluded_share;
   }
   support_.update(segmentation_.object_ids, segmentation_.counts, hidden_, frame_.retired);
   for (const std::int32_t id : gripped_away_) {
@@ -198,7 +200,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_, object.version, color_histogram(object.model), first_seen_.at(id), object.model,
+      retired_[id] = {frames_,     object.version,  color_histogram(object.model), first_seen_.at(id), object.model,
                       object.pose, object.part_ends};
     }
     forget(id);
@@ -209,9 +211,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       if (label != 0 && !objects_.contains(label)) label = 0;
     }
   }
-  std::erase_if(retired_, [&](const auto& entry) {
-    return frames_ - entry.second.retired_frame >= options_.reidentify_frames;
-  });
+  std::erase_if(retired_,
+                [&](const auto& entry) { return frames_ - entry.second.retired_frame >= options_.reidentify_frames; });
 
   // 5. new objects from clusters no object explains
   clusters_.point_indices.clear();
@@ -229,7 +230,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     std::vector<int> fill(clusters_.offsets.begin(), clusters_.offsets.end() - 1);
     for (std::size_t i = 0; i < cluster_of_point.size(); ++i) {
       const std::int32_t c = cluster_of_point[i];
-      if (c >= 0) clusters_.point_indices[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(i);
+      if (c >= 0)
+        clusters_.point_indices[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(i);
     }
   }
   if (frames_ == 0 && objects_.empty()) {
@@ -292,7 +294,8 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
   if (free_.empty() || wave_.empty()) return;
   // Seeded too thinly, the cluster is no part of its labelled points' objects (a box a hand put down, a few stray
   // labels of the hand leaving it): its unexplained points stay free, to become an object of their own.
-  if (static_cast<float>(wave_.size()) < options_.propagation_min_seed_share * static_cast<float>(cluster_points.size())) {
+  if (static_cast<float>(wave_.size()) <
+      options_.propagation_min_seed_share * static_cast<float>(cluster_points.size())) {
     return;
   }
   // Waves: each free point within radius of the last wave's points takes its nearest one's
@@ -623,8 +626,7 @@ bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::
     registration_points_.colors.push_back(scene.colors[static_cast<std::size_t>(i)]);
   }
   registration_points_.features = compute_smr(registration_points_.colors, options_.smr);
-  const std::optional<Registration> found =
-      registration_->register_model(model, registration_points_, pose.rotation);
+  const std::optional<Registration> found = registration_->register_model(model, registration_points_, pose.rotation);
   if (!found) return false;
   // The remembered model first (its points win their voxels when thinning), then the new points
   // in its frame.
@@ -633,7 +635,8 @@ bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::
   for (std::size_t k = 0; k < registration_points_.points.size(); ++k) {
     whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
   }
-  whole.features.insert(whole.features.end(), registration_points_.features.begin(), registration_points_.features.end());
+  whole.features.insert(whole.features.end(), registration_points_.features.begin(),
+                        registration_points_.features.end());
   object.part_ends.assign(part_ends.begin(), part_ends.end());
   object.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));
   object.model = thinned(std::move(whole), options_.max_model_points, object.part_ends);
@@ -745,7 +748,8 @@ bool ObjectManager::touching(std::int32_t a, std::int32_t b, float distance) {
   const ManagedObject& first = objects_.at(std::get<0>(key));
   const ManagedObject& second = objects_.at(std::get<1>(key));
   const float reach = model_radius_.at(a) + model_radius_.at(b) + distance;
-  const bool touch = (first.pose.translation - second.pose.translation).norm() <= reach && models_touch(first, second, distance);
+  const bool touch =
+      (first.pose.translation - second.pose.translation).norm() <= reach && models_touch(first, second, distance);
   touch_memo_.emplace(key, touch);
   return touch;
 }
@@ -830,9 +834,8 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
     const std::vector<SplitPart> parts_apart = follow_parts(object, scene, apart ? large : decltype(large){});
     if (streak < o.split_frames) continue;
     // The object keeps its largest part (first of equals); the others that departed from its motion are new.
-    const auto largest = std::max_element(large.begin(), large.end(), [](const auto* x, const auto* y) {
-      return x->size() < y->size();
-    });
+    const auto largest = std::max_element(large.begin(), large.end(),
+                                          [](const auto* x, const auto* y) { return x->size() < y->size(); });
     std::vector<const std::vector<int>*> leaving;
     for (std::size_t k = 0; k < large.size(); ++k) {
       if (large[k] == *largest) continue;
@@ -1017,7 +1020,7 @@ bool ObjectManager::PartMatch::disagrees(std::size_t min_piece) const {
 
 void ObjectManager::adopt_parts(const ColoredCloud& scene, std::uint64_t birth, std::span<const int> all,
                                 const std::vector<std::vector<int>>& parts, const PartMatch& match) {
-  std::set<std::int32_t> changed;  // members whose points changed: their models are rebuilt
+  std::set<std::int32_t> changed;                         // members whose points changed: their models are rebuilt
   std::set<std::pair<std::int32_t, std::int32_t>> moved;  // (from, to)
   for (std::size_t p = 0; p < parts.size(); ++p) {
     const std::int32_t to = match.member_of_part[p];
@@ -1045,8 +1048,8 @@ void ObjectManager::adopt_parts(const ColoredCloud& scene, std::uint64_t birth, 
     }
     if (points.size() < options_.min_object_points) continue;
     const std::int32_t split = std::max_element(from.begin(), from.end(), [](const auto& x, const auto& y) {
-      return x.second < y.second;
-    })->first;
+                                 return x.second < y.second;
+                               })->first;
     for (const auto& [id, count] : from) changed.insert(id);
     for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = 0;
     current_birth_ = birth;
@@ -1074,14 +1077,17 @@ void ObjectManager::discover_parts(const ColoredCloud& scene, std::span<const in
   const int count = discovery_->split(part_positions_, part_colors_, part_of_point_);
   part_boundary_.refine(part_positions_, part_colors_, part_of_point_);
   parts.assign(static_cast<std::size_t>(std::max(count, 1)), {});
-  for (std::size_t k = 0; k < points.size(); ++k) parts[static_cast<std::size_t>(part_of_point_[k])].push_back(points[k]);
+  for (std::size_t k = 0; k < points.size(); ++k)
+    parts[static_cast<std::size_t>(part_of_point_[k])].push_back(points[k]);
   std::erase_if(parts, [&](const std::vector<int>& part) { return part.size() < options_.min_object_points; });
 }
 
 void ObjectManager::rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points) {
   const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
   ColoredCloud part;
-  for (const int i : points) part.push_back(camera_to_object * scene.positions[static_cast<std::size_t>(i)], scene.colors[static_cast<std::size_t>(i)]);
+  for (const int i : points)
+    part.push_back(camera_to_object * scene.positions[static_cast<std::size_t>(i)],
+                   scene.colors[static_cast<std::size_t>(i)]);
   const std::vector<std::uint32_t> keep = even_subset(part, options_.max_model_points);
   object.model.cloud.clear();
   for (const std::uint32_t k : keep) object.model.cloud.push_back(part.positions[k], part.colors[k]);

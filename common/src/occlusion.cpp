@@ -134,8 +134,8 @@ float OcclusionTest::seen_through_share(std::span<const Eigen::Vector3f> model_p
   if (max_points < 1) throw std::invalid_argument("OcclusionTest::seen_through_share needs max_points >= 1");
   if (model_points.empty()) return 0.f;
   const Eigen::Isometry3f to_camera = object_to_camera(pose);
-  const std::size_t stride = (model_points.size() + static_cast<std::size_t>(max_points) - 1) /
-                             static_cast<std::size_t>(max_points);
+  const std::size_t stride =
+      (model_points.size() + static_cast<std::size_t>(max_points) - 1) / static_cast<std::size_t>(max_points);
   std::size_t tested = 0;
   std::size_t seen = 0;
   for (std::size_t k = 0; k < model_points.size(); k += stride) {

@@ -1,7 +1,5 @@
 #include "mfot/part_boundary.hpp"
 
-#include "mfot/point_scatter.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -10,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+#include "mfot/point_scatter.hpp"
 
 namespace mfot {
 namespace {

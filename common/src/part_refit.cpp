@@ -2,14 +2,14 @@
 
 #include "mfot/part_refit.hpp"
 
-#include "mfot/option_range.hpp"
-#include "mfot/point_scatter.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+
+#include "mfot/option_range.hpp"
+#include "mfot/point_scatter.hpp"
 
 namespace mfot {
 
@@ -99,13 +99,13 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   }
   if (seen_parts_.empty()) return 0;  // nothing to re-fit: the first view's registration would go unused
   // 3. the pose the first view gives
-  const IcpResult first_view =
-      first_view_icp_.refine(part_scene_[0], model.subspan(0, part_ends[0]), estimate);
+  const IcpResult first_view = first_view_icp_.refine(part_scene_[0], model.subspan(0, part_ends[0]), estimate);
   if (!first_view.refined) return 0;
   const Eigen::Isometry3f first_view_pose = first_view.pose.isometry();
   const bool keeps_held = options_.min_held_rotation > 0.f;
   const Eigen::Matrix3d first_view_held =
-      keeps_held ? first_view_rotations(part_scene_[0], model, part_ends[0], first_view.pose) : Eigen::Matrix3d::Identity();
+      keeps_held ? first_view_rotations(part_scene_[0], model, part_ends[0], first_view.pose)
+                 : Eigen::Matrix3d::Identity();
   // 4.-6. each grown part's misplacement, undone
   std::size_t moved = 0;
   for (const std::size_t part : seen_parts_) {
@@ -121,9 +121,9 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
       centroid /= static_cast<float>(points.size());
       const Eigen::Vector3f centroid_moved = misplacement * centroid;
       const double angle = held.norm();
-      misplacement.linear() = angle > 0.0 ? Eigen::AngleAxisf(static_cast<float>(angle), (held / angle).cast<float>())
-                                                .toRotationMatrix()
-                                          : Eigen::Matrix3f::Identity();
+      misplacement.linear() =
+          angle > 0.0 ? Eigen::AngleAxisf(static_cast<float>(angle), (held / angle).cast<float>()).toRotationMatrix()
+                      : Eigen::Matrix3f::Identity();
       misplacement.translation() = centroid_moved - misplacement.linear() * centroid;
     }
     const float rotation = Eigen::AngleAxisf(misplacement.linear()).angle();
@@ -201,9 +201,10 @@ std::vector<Eigen::Vector3f>& PartRefit::first_view_normals(std::span<const Eige
   if (found == normal_cache_.end()) {
     // A first view not seen lately: another object's, or this one's thinned. The oldest entry makes way.
     if (normal_cache_.size() >= kNormalCacheSize) normal_cache_.erase(normal_cache_.begin());
-    normal_cache_.push_back({std::vector<Eigen::Vector3f>(first_view.begin(), first_view.end()),
-                             std::vector<Eigen::Vector3f>(first_view.size(), Eigen::Vector3f::Constant(
-                                                                                 std::numeric_limits<float>::quiet_NaN()))});
+    normal_cache_.push_back(
+        {std::vector<Eigen::Vector3f>(first_view.begin(), first_view.end()),
+         std::vector<Eigen::Vector3f>(first_view.size(),
+                                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()))});
     found = normal_cache_.end() - 1;
   }
   return found->normals;

@@ -3,7 +3,6 @@
 #include "mfot/particle_filter.hpp"
 
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -22,13 +21,11 @@ const ParticleFilterOptions& validated(const ParticleFilterOptions& o) {
           "num_particles must be in [1, 1000000], got " + std::to_string(o.num_particles));
   for (int k = 0; k < 6; ++k) {
     require(std::isfinite(o.init_sigma[k]) && o.init_sigma[k] >= 0.f,
-            "init_sigma[" + std::to_string(k) + "] must be finite and >= 0, got " +
-                std::to_string(o.init_sigma[k]));
+            "init_sigma[" + std::to_string(k) + "] must be finite and >= 0, got " + std::to_string(o.init_sigma[k]));
   }
   require(std::isfinite(o.a) && o.a >= 0.f, "a must be finite and >= 0, got " + std::to_string(o.a));
   require(std::isfinite(o.b) && o.b >= 0.f, "b must be finite and >= 0, got " + std::to_string(o.b));
-  require(o.lambda > 0.f && o.lambda <= 1000.f,
-          "lambda must be in (0, 1000], got " + std::to_string(o.lambda));
+  require(o.lambda > 0.f && o.lambda <= 1000.f, "lambda must be in (0, 1000], got " + std::to_string(o.lambda));
   require(o.resampling == ResamplingScheme::kMultinomial || o.resampling == ResamplingScheme::kSystematic,
           "resampling must be kMultinomial or kSystematic");
   o.step_motion().validate("ParticleFilterOptions");

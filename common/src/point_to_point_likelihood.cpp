@@ -64,8 +64,8 @@ void PointToPointLikelihood::evaluate(std::span<const Pose> particles, const Hyp
       const std::array<float, 3>& cm = model_colors_[static_cast<std::size_t>(m)];
       const std::array<float, 3>& cz = data_colors_[j];
       const float dr = cm[0] - cz[0], dg = cm[1] - cz[1], db = cm[2] - cz[2];
-      const float d_e = std::sqrt(squared);                       // 2.19
-      const float d_c = std::sqrt(dr * dr + dg * dg + db * db);  // 2.21
+      const float d_e = std::sqrt(squared);                                   // 2.19
+      const float d_c = std::sqrt(dr * dr + dg * dg + db * db);               // 2.21
       score += std::exp(-options_.lambda_e * d_e - options_.lambda_c * d_c);  // 2.18
     }
     scores[i] = static_cast<float>(score);

@@ -1,10 +1,9 @@
-#include "mfot/preprocessing.hpp"
-
-#include "mfot/point_scatter.hpp"
-
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/point_scatter.hpp"
+#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 
@@ -45,8 +44,8 @@ void PlaneFitOptions::validate() const {
   require(sample_points >= 3 && sample_points <= 1000000, "sample_points", "in [3, 1000000]");
   require(std::isfinite(inlier_distance) && inlier_distance > 0.f && inlier_distance <= 0.5f, "inlier_distance",
           "in (0, 0.5] metres");
-  require(std::isfinite(min_inlier_share) && min_inlier_share > 0.f && min_inlier_share <= 1.f,
-          "min_inlier_share", "in (0, 1]");
+  require(std::isfinite(min_inlier_share) && min_inlier_share > 0.f && min_inlier_share <= 1.f, "min_inlier_share",
+          "in (0, 1]");
 }
 
 PlaneFitter::PlaneFitter(PlaneFitOptions options) : options_(options), rng_(options.seed) { options_.validate(); }

@@ -1,9 +1,9 @@
-#include "mfot/preprocessing.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 

@@ -1,12 +1,12 @@
 #include "mfot/preprocessing.hpp"
 
-#include "mfot/splitmix.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/splitmix.hpp"
 
 namespace mfot {
 
@@ -154,9 +154,9 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
   }
   const std::size_t pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   if (image.depth_mm.size() != pixels || image.color.size() != pixels) {
-    throw std::invalid_argument("Preprocessor::process: depth and colour must both hold width * height = " +
-                                std::to_string(pixels) + " pixels, got " + std::to_string(image.depth_mm.size()) +
-                                " and " + std::to_string(image.color.size()));
+    throw std::invalid_argument(
+        "Preprocessor::process: depth and colour must both hold width * height = " + std::to_string(pixels) +
+        " pixels, got " + std::to_string(image.depth_mm.size()) + " and " + std::to_string(image.color.size()));
   }
   const CameraIntrinsics& k = image.intrinsics;
   if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && std::isfinite(k.cx) && std::isfinite(k.cy) && k.fx > 0.f &&
@@ -189,8 +189,8 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
   std::size_t count = 0;
   split_evenly(static_cast<std::size_t>(h), kMinPreprocessRowsPerPiece);
   if (pieces_.size() <= 1) {
-    crop_rows(image, 0, h, PointBuffers{cropped_positions_.data(), cropped_colors_.data(), cropped_pixels_.data()}, valid,
-              count);
+    crop_rows(image, 0, h, PointBuffers{cropped_positions_.data(), cropped_colors_.data(), cropped_pixels_.data()},
+              valid, count);
   } else {
     // Each piece of rows writes its points to the (still unused) above-plane buffers from its
     // first pixel on, then copies them behind the previous pieces' points.
@@ -224,7 +224,8 @@ void Preprocessor::backproject_and_crop(const RgbdImageView& image) {
 void Preprocessor::split_evenly(std::size_t n, std::size_t min_piece) {
   // Several pieces per thread: a thread that wakes late (its core busy) still finds work, and the
   // caller is not left waiting for one large piece started late.
-  const std::size_t most = pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
+  const std::size_t most =
+      pool_.threads() == 1 ? 1 : kPreprocessPiecesPerThread * static_cast<std::size_t>(pool_.threads());
   const std::size_t pieces = std::clamp<std::size_t>(n / min_piece, 1, most);
   pieces_.resize(pieces);
   for (std::size_t p = 0; p < pieces; ++p) {
@@ -355,8 +356,8 @@ int Preprocessor::voxel_index_of(const Eigen::Vector3f& p) const { return voxels
 
 int Preprocessor::voxel_index_at(int u, int v) const {
   if (u < 0 || v < 0 || u >= image_width_ || image_width_ == 0) return -1;
-  const std::size_t index = static_cast<std::size_t>(v) * static_cast<std::size_t>(image_width_) +
-                            static_cast<std::size_t>(u);
+  const std::size_t index =
+      static_cast<std::size_t>(v) * static_cast<std::size_t>(image_width_) + static_cast<std::size_t>(u);
   return index < pixel_voxel_.size() ? pixel_voxel_[index] : -1;
 }
 

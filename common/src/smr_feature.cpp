@@ -47,8 +47,7 @@ SmrFeature compute_smr_unchecked(Rgb8 color, const SmrOptions& options) {
     if (hue >= 360.f) hue -= 360.f;
   }
 
-  const float chromatic =
-      value > 0.f ? std::pow(saturation, options.r * std::pow(value, -options.r1)) : 0.f;
+  const float chromatic = value > 0.f ? std::pow(saturation, options.r * std::pow(value, -options.r1)) : 0.f;
   const float achromatic = 1.f - chromatic;
 
   SmrFeature f;

@@ -79,7 +79,8 @@ void SpatialHash::build(std::span<const Eigen::Vector3f> points) {
   } else {
     build_sparse();
   }
-  for (std::size_t s = 0; s < sorted_index_.size(); ++s) sorted_points_[s] = points[static_cast<std::size_t>(sorted_index_[s])];
+  for (std::size_t s = 0; s < sorted_index_.size(); ++s)
+    sorted_points_[s] = points[static_cast<std::size_t>(sorted_index_[s])];
 }
 
 // Counting sort by linear cell index; visiting points in input order keeps each cell ascending.
@@ -194,7 +195,8 @@ void SpatialHash::radius_search(const Eigen::Vector3f& q, float radius, std::vec
   const std::size_t first = out.size();
   const float r2 = radius * radius;
   for_each_candidate(q, radius, [&](int s) {
-    if ((sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm() <= r2) out.push_back(sorted_index_[static_cast<std::size_t>(s)]);
+    if ((sorted_points_[static_cast<std::size_t>(s)] - q).squaredNorm() <= r2)
+      out.push_back(sorted_index_[static_cast<std::size_t>(s)]);
     return false;
   });
   std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());

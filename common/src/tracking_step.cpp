@@ -2,13 +2,13 @@
 
 #include "mfot/tracking_step.hpp"
 
-#include "mfot/option_range.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/option_range.hpp"
 
 namespace mfot {
 
@@ -57,7 +57,8 @@ void TrackingStepOptions::validate() const {
   icp.validate("TrackingStepOptions.icp");
   if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
     throw std::invalid_argument(
-        "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an object "
+        "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an "
+        "object "
         "are what tells it is isolated");
   }
   if (!(hold_min_scored_share >= 0.f && hold_min_scored_share <= 1.f)) {
@@ -150,8 +151,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
-    const IcpResult icp = icp_.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions, model.features,
-                                      result.estimate);
+    const IcpResult icp =
+        icp_.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions, model.features, result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
@@ -213,7 +214,8 @@ bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, con
   if (!(filter_angle >= options_.companion_turn_min && companion_angle >= options_.companion_turn_min)) {
     return false;  // too small, or NaN
   }
-  if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_angle) return false;
+  if (filter_turn.dot(companion_turn) < options_.companion_turn_min_cosine * filter_angle * companion_angle)
+    return false;
   // The share of the filter's turn that the refined estimate kept, along the filter's axis.
   const Eigen::Vector3f refined_turn = rotation_vector(Eigen::AngleAxisf(refined.rotation * from_last));
   const float kept = refined_turn.dot(filter_turn) / (filter_angle * filter_angle);

@@ -4,19 +4,18 @@
 
 #include "mfot/cuda/cuda_jcsd_likelihood.hpp"
 
-#include "jcsd_device.cuh"
-
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+
+#include "jcsd_device.cuh"
 
 namespace mfot {
 
 void validate(const CudaJcsdLikelihoodOptions& options) {
   validate(options.grid);
   if (options.device < 0) {
-    throw std::invalid_argument("CudaJcsdLikelihoodOptions.device must be >= 0, got " +
-                                std::to_string(options.device));
+    throw std::invalid_argument("CudaJcsdLikelihoodOptions.device must be >= 0, got " + std::to_string(options.device));
   }
   if (options.point_splits < 0 || options.point_splits > 64) {
     throw std::invalid_argument("CudaJcsdLikelihoodOptions.point_splits must be in [0, 64] (0: automatic), got " +
@@ -26,15 +25,13 @@ void validate(const CudaJcsdLikelihoodOptions& options) {
 
 CudaJcsdLikelihood::CudaJcsdLikelihood(const CudaJcsdLikelihoodOptions& options) : options_(options) {
   validate(options_);
-  device_ = std::make_unique<cuda_detail::JcsdDevice>(
-      cuda_detail::DeviceOptions{options_.device, options_.point_splits});
+  device_ =
+      std::make_unique<cuda_detail::JcsdDevice>(cuda_detail::DeviceOptions{options_.device, options_.point_splits});
 }
 
 CudaJcsdLikelihood::~CudaJcsdLikelihood() = default;
 
-void CudaJcsdLikelihood::set_model(const ObjectModel& model) {
-  set_grid(build_jcsd_grid(model, options_.grid));
-}
+void CudaJcsdLikelihood::set_model(const ObjectModel& model) { set_grid(build_jcsd_grid(model, options_.grid)); }
 
 void CudaJcsdLikelihood::set_grid(JcsdGrid grid) {
   if (grid.values.size() != grid.num_corners() * kSmrBins) {
@@ -76,7 +73,7 @@ void CudaJcsdLikelihood::evaluate(std::span<const Pose> particles, const Hypothe
       throw std::invalid_argument("CudaJcsdLikelihood::evaluate: feature " + std::to_string(j) +
                                   " has hue_bin outside [0, 6) or gray_bin not 6 or 7");
     }
-    points[j] = {z.x(), z.y(), z.z(), static_cast<std::int32_t>(h.hue_bin),
+    points[j] = {z.x(),           z.y(),           z.z(),         static_cast<std::int32_t>(h.hue_bin),
                  h.hue_weight_lo, h.hue_weight_hi, h.gray_weight, static_cast<std::int32_t>(h.gray_bin)};
   }
 

@@ -9,8 +9,7 @@
 
 namespace mfot {
 
-FallbackLikelihood::FallbackLikelihood(std::unique_ptr<Likelihood> primary,
-                                       std::unique_ptr<Likelihood> fallback)
+FallbackLikelihood::FallbackLikelihood(std::unique_ptr<Likelihood> primary, std::unique_ptr<Likelihood> fallback)
     : primary_(std::move(primary)), fallback_(std::move(fallback)) {
   if (!primary_ || !fallback_) {
     throw std::invalid_argument("FallbackLikelihood: primary and fallback must both be non-null");
@@ -61,8 +60,8 @@ void FallbackLikelihood::evaluate(std::span<const Pose> particles, const Hypothe
 void FallbackLikelihood::record_failure(const char* stage, const std::exception& error) {
   last_error_ = error.what();
   if (last_error_ != last_logged_) {
-    spdlog::warn("likelihood {} {} failed, scoring with {}: {}", primary_->name(), stage,
-                 fallback_->name(), last_error_);
+    spdlog::warn("likelihood {} {} failed, scoring with {}: {}", primary_->name(), stage, fallback_->name(),
+                 last_error_);
     last_logged_ = last_error_;
   }
 }

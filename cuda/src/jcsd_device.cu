@@ -20,8 +20,6 @@
 //     order. No floating-point atomics: scores are bit-identical from call to call. Splits are
 //     chosen per call so that the items spread evenly over the multiprocessors.
 
-#include "jcsd_device.cuh"
-
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -30,6 +28,8 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+
+#include "jcsd_device.cuh"
 
 namespace mfot::cuda_detail {
 namespace {
@@ -47,11 +47,11 @@ using PlaneElement = float2;  // one bin of a corner and of its x neighbour
 // Particles per tile: a half warp, whose lanes read one point (shared-memory loads of 8 bytes
 // are served per half warp).
 constexpr int kTile = 16;
-constexpr int kPointsPerPass = kThreadsPerBlock / kTile;  // points a block scores at once
+constexpr int kPointsPerPass = kThreadsPerBlock / kTile;                      // points a block scores at once
 constexpr std::size_t kReduceBytes = kWarpsPerBlock * kTile * sizeof(float);  // one sum per warp and particle
-constexpr int kMaxSplits = 64;                            // split sums per particle
-constexpr int kMinSplitPoints = kPointsPerPass;           // fewer would leave threads idle
-constexpr std::size_t kMaxItems = std::size_t{1} << 24;  // points or particles per call
+constexpr int kMaxSplits = 64;                                                // split sums per particle
+constexpr int kMinSplitPoints = kPointsPerPass;                               // fewer would leave threads idle
+constexpr std::size_t kMaxItems = std::size_t{1} << 24;                       // points or particles per call
 // Device frame padding: a thread's prefetch reads up to kPointsPerPass points past the last one.
 constexpr std::size_t kFramePadBytes = kPointsPerPass * sizeof(PointRecord);
 
@@ -152,24 +152,24 @@ class PinnedBuffer {
 // J as 8 planes of floats, bin b of corner (x, y, z) at b * plane + z * stride_z + y * stride_y + x
 // (zeros in the padding). In shared memory the reduction buffer follows the planes.
 struct GridLayout {
-  const float4* raw;    // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
+  const float4* raw;           // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
   const PlaneElement* planes;  // the planes in global memory (global-memory kernel only)
   int dim_x, dim_y;
-  int stride_y, stride_z;           // padded strides in corners
-  int plane;                        // elements per plane: stride_z * dims[2]
-  int bytes_y, bytes_z, bytes_yz;   // the strides y, z and y + z in bytes
-  unsigned max_x, max_y, max_z;     // largest valid cell index per axis (dims - 2)
+  int stride_y, stride_z;          // padded strides in corners
+  int plane;                       // elements per plane: stride_z * dims[2]
+  int bytes_y, bytes_z, bytes_yz;  // the strides y, z and y + z in bytes
+  unsigned max_x, max_y, max_z;    // largest valid cell index per axis (dims - 2)
 };
 
 struct Frame {
-  const float4* points;     // two float4 per point: (x, y, z, hue plane bits), (w_lo, w_hi, w_gray, gray plane bits)
+  const float4* points;  // two float4 per point: (x, y, z, hue plane bits), (w_lo, w_hi, w_gray, gray plane bits)
   int num_points;
   const float4* particles;  // three float4 per particle: rows [A | b]
   int num_particles;
-  int splits;               // work items per tile
-  int split_points;         // points per split
-  float* partials;          // splits x (tiles * kTile) split sums (splits > 1)
-  unsigned* tile_done;      // splits done per tile, zero between calls (splits > 1)
+  int splits;           // work items per tile
+  int split_points;     // points per split
+  float* partials;      // splits x (tiles * kTile) split sums (splits > 1)
+  unsigned* tile_done;  // splits done per tile, zero between calls (splits > 1)
   float* scores;
 };
 
@@ -415,8 +415,8 @@ int device_count(std::string* why) {
 std::string device_description(int device) {
   cudaDeviceProp props{};
   check(cudaGetDeviceProperties(&props, device), "cudaGetDeviceProperties");
-  return std::string(props.name) + " (sm_" + std::to_string(props.major) + std::to_string(props.minor) +
-         ", " + std::to_string(props.multiProcessorCount) + " SMs)";
+  return std::string(props.name) + " (sm_" + std::to_string(props.major) + std::to_string(props.minor) + ", " +
+         std::to_string(props.multiProcessorCount) + " SMs)";
 }
 
 struct JcsdDevice::State {
@@ -434,14 +434,14 @@ struct JcsdDevice::State {
   PinnedBuffer grid_host, frame_host, scores_host;
 
   std::array<int, 3> dims{0, 0, 0};
-  int corners = 0;  // 0: no valid grid on the device
+  int corners = 0;                            // 0: no valid grid on the device
   int stride_y = 0, stride_z = 0, plane = 0;  // the planes' layout (GridLayout)
   std::array<int, 3> strides_for{0, 0, 0};    // dims whose strides are cached
   std::pair<int, int> strides{0, 0};
-  int max_shared_bytes = 0;     // dynamic shared memory a block may opt in to
-  bool grid_in_shared = false;  // the current grid's planes fit in shared memory
-  int resident_blocks = 0;      // blocks of the chosen kernel that run at once on the device
-  bool counters_zero = false;   // tile_done holds zeros (it is reset by every completed kernel)
+  int max_shared_bytes = 0;                             // dynamic shared memory a block may opt in to
+  bool grid_in_shared = false;                          // the current grid's planes fit in shared memory
+  int resident_blocks = 0;                              // blocks of the chosen kernel that run at once on the device
+  bool counters_zero = false;                           // tile_done holds zeros (it is reset by every completed kernel)
   std::size_t staged_points = 0, staged_particles = 0;  // the frame staged by stage_frame
   bool frame_staged = false;  // stage_frame was called since the last evaluate (which rewrites the records)
   DeviceTiming timing;
@@ -468,13 +468,11 @@ JcsdDevice::JcsdDevice(const DeviceOptions& options) : state_(std::make_unique<S
   int count = 0;
   check(cudaGetDeviceCount(&count), "cudaGetDeviceCount");
   if (options.device < 0 || options.device >= count) {
-    throw std::runtime_error("CUDA device " + std::to_string(options.device) + " requested, " +
-                             std::to_string(count) + " present: " +
-                             cudaGetErrorString(cudaErrorInvalidDevice));
+    throw std::runtime_error("CUDA device " + std::to_string(options.device) + " requested, " + std::to_string(count) +
+                             " present: " + cudaGetErrorString(cudaErrorInvalidDevice));
   }
   check(cudaSetDevice(options.device), "cudaSetDevice");
-  check(cudaDeviceGetAttribute(&s.sm_count, cudaDevAttrMultiProcessorCount, options.device),
-        "cudaDeviceGetAttribute");
+  check(cudaDeviceGetAttribute(&s.sm_count, cudaDevAttrMultiProcessorCount, options.device), "cudaDeviceGetAttribute");
   check(cudaDeviceGetAttribute(&s.max_shared_bytes, cudaDevAttrMaxSharedMemoryPerBlockOptin, options.device),
         "cudaDeviceGetAttribute");
   check(cudaFuncSetAttribute(score_kernel<true>, cudaFuncAttributeMaxDynamicSharedMemorySize, s.max_shared_bytes),
@@ -561,14 +559,14 @@ FrameStaging JcsdDevice::stage_frame(std::size_t points, std::size_t particles) 
   s.staged_particles = particles;
   s.frame_staged = true;
   auto* base = s.frame_host.as<unsigned char>();
-  return {reinterpret_cast<PointRecord*>(base),
-          reinterpret_cast<ParticleRecord*>(base + points * sizeof(PointRecord))};
+  return {reinterpret_cast<PointRecord*>(base), reinterpret_cast<ParticleRecord*>(base + points * sizeof(PointRecord))};
 }
 
 void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scores) {
   State& s = *state_;
   if (particles == 0) return;
-  if (s.corners == 0) throw std::runtime_error("CUDA JCSD: no grid on the device (none uploaded, or the upload failed)");
+  if (s.corners == 0)
+    throw std::runtime_error("CUDA JCSD: no grid on the device (none uploaded, or the upload failed)");
   if (!s.frame_staged || points != s.staged_points || particles != s.staged_particles) {
     throw std::runtime_error("JcsdDevice::evaluate: no frame staged with these counts (stage_frame first)");
   }
@@ -581,12 +579,13 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   const int num_points = static_cast<int>(points);
   const int num_particles = static_cast<int>(particles);
   const int tiles = (num_particles + kTile - 1) / kTile;
-  const int splits = std::min(s.options.splits > 0 ? s.options.splits : choose_splits(tiles, num_points, s.resident_blocks),
-                              num_points);
+  const int splits = std::min(
+      s.options.splits > 0 ? s.options.splits : choose_splits(tiles, num_points, s.resident_blocks), num_points);
   const int split_points = (num_points + splits - 1) / splits;
   const int blocks = std::min(tiles * splits, s.resident_blocks);
   const std::size_t shared_bytes =
-      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kPlanes * sizeof(PlaneElement) + kReduceBytes : kReduceBytes;
+      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kPlanes * sizeof(PlaneElement) + kReduceBytes
+                       : kReduceBytes;
 
   const std::size_t frame_bytes = points * sizeof(PointRecord) + particles * sizeof(ParticleRecord);
   s.frame.reserve(frame_bytes + kFramePadBytes, s.stream, "cudaMalloc (frame)");
@@ -599,8 +598,9 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
       s.counters_zero = false;
     }
     if (!s.counters_zero) {
-      check(cudaMemsetAsync(s.tile_done.as<unsigned>(), 0, static_cast<std::size_t>(tiles) * sizeof(unsigned), s.stream),
-            "cudaMemsetAsync (counters)");
+      check(
+          cudaMemsetAsync(s.tile_done.as<unsigned>(), 0, static_cast<std::size_t>(tiles) * sizeof(unsigned), s.stream),
+          "cudaMemsetAsync (counters)");
     }
   }
 
@@ -623,8 +623,14 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   const float4* device_points = s.frame.as<float4>();
   const GridLayout layout =
       make_layout(s.raw_grid.as<float4>(), s.planes.as<PlaneElement>(), s.dims, s.stride_y, s.stride_z, s.plane);
-  const Frame frame{device_points,          num_points, device_points + 2 * points, num_particles,
-                    splits,                 split_points, s.partials.as<float>(), s.tile_done.as<unsigned>(),
+  const Frame frame{device_points,
+                    num_points,
+                    device_points + 2 * points,
+                    num_particles,
+                    splits,
+                    split_points,
+                    s.partials.as<float>(),
+                    s.tile_done.as<unsigned>(),
                     s.scores.as<float>()};
   check(cudaEventRecord(s.kernel_begin, s.stream), "cudaEventRecord");
   if (s.grid_in_shared) {

@@ -19,11 +19,11 @@ std::string device_description(int device);
 // One hypothesis point as the kernel reads it: two 16-byte words. The host writes the bins;
 // evaluate() turns them into the byte offsets of the kernel's grid planes.
 struct PointRecord {
-  float x, y, z;             // camera frame, metres
-  std::int32_t hue_bin;      // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
-  float w_lo, w_hi;          // chromatic weights
-  float w_gray;              // achromatic weight
-  std::int32_t gray_bin;     // its bin: 6 (dark) or 7 (light)
+  float x, y, z;          // camera frame, metres
+  std::int32_t hue_bin;   // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi
+  float w_lo, w_hi;       // chromatic weights
+  float w_gray;           // achromatic weight
+  std::int32_t gray_bin;  // its bin: 6 (dark) or 7 (light)
 };
 static_assert(sizeof(PointRecord) == 32);
 
@@ -35,14 +35,15 @@ struct ParticleRecord {
 static_assert(sizeof(ParticleRecord) == 48);
 
 struct DeviceTiming {
-  float kernel_ms = 0.f;       // the scoring kernel alone (CUDA events)
-  float transfer_ms = 0.f;     // upload of points and particles, kernel, download of scores (CUDA events)
-  int splits = 0;              // the launch shape used: work items per tile of 16 particles
+  float kernel_ms = 0.f;    // the scoring kernel alone (CUDA events)
+  float transfer_ms = 0.f;  // upload of points and particles, kernel, download of scores (CUDA events)
+  int splits = 0;           // the launch shape used: work items per tile of 16 particles
 };
 
 struct DeviceOptions {
   int device = 0;
-  int splits = 0;  // work items per tile of 16 particles (each scores a split of the points), [1, 64]; 0: chosen per call
+  int splits =
+      0;  // work items per tile of 16 particles (each scores a split of the points), [1, 64]; 0: chosen per call
 };
 
 // Where the host writes one frame: `points` PointRecords and `particles` ParticleRecords.

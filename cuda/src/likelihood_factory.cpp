@@ -25,7 +25,8 @@ LikelihoodBackend parse_likelihood_backend(std::string_view name) {
   if (name == "cuda") return LikelihoodBackend::kCuda;
   if (name == "cpu") return LikelihoodBackend::kCpu;
   if (name == "point-to-point") return LikelihoodBackend::kPointToPoint;
-  throw std::invalid_argument("likelihood backend '" + std::string(name) + "' is not one of auto|cuda|cpu|point-to-point");
+  throw std::invalid_argument("likelihood backend '" + std::string(name) +
+                              "' is not one of auto|cuda|cpu|point-to-point");
 }
 namespace {
 
@@ -97,10 +98,8 @@ LikelihoodChoice make_likelihood(const LikelihoodOptions& options) {
       gpu_options.device = options.cuda_device;
       auto gpu = std::make_unique<CudaJcsdLikelihood>(gpu_options);
       std::string note = asked + ": CUDA JCSD on device " + std::to_string(options.cuda_device) + ", " +
-                         gpu->device_description() + "; the CPU JCSD (" + threads +
-                         ") scores any frame the GPU fails";
-      return {std::make_unique<FallbackLikelihood>(std::move(gpu), make_cpu()), "jcsd-cuda",
-              std::move(note)};
+                         gpu->device_description() + "; the CPU JCSD (" + threads + ") scores any frame the GPU fails";
+      return {std::make_unique<FallbackLikelihood>(std::move(gpu), make_cpu()), "jcsd-cuda", std::move(note)};
     } catch (const std::runtime_error& error) {
       why = error.what();
     }

@@ -1,32 +1,32 @@
 // mfot-capture: the pipeline's input. Reads registered RGB-D frames from a source (the live
-// simulator, a TUM RGB-D folder, a folder of organised PCD files, a recorded lcm log, an OpenNI2 .oni recording or a live OpenNI2
-// camera), encodes them (depth raw/zlib/RVL, colour raw/JPEG/PNG; a log's frames go out as
-// recorded) and publishes frame_t on MFOT_FRAME, paced in real time by the source timestamps, as
-// fast as possible, or in lockstep with the pipeline (at most capture.lockstep_window frames whose
-// poses_t has not arrived on MFOT_POSES). Ground truth of the simulator (or of a rendered TUM
-// folder) is written to --groundtruth-dir for offline scoring. Section `capture` of the config;
-// the command line overrides it. The loop is run_capture_service (src/capture_service.cpp).
+// simulator, a TUM RGB-D folder, a folder of organised PCD files, a recorded lcm log, an OpenNI2 .oni recording or a
+// live OpenNI2 camera), encodes them (depth raw/zlib/RVL, colour raw/JPEG/PNG; a log's frames go out as recorded) and
+// publishes frame_t on MFOT_FRAME, paced in real time by the source timestamps, as fast as possible, or in lockstep
+// with the pipeline (at most capture.lockstep_window frames whose poses_t has not arrived on MFOT_POSES). Ground truth
+// of the simulator (or of a rendered TUM folder) is written to --groundtruth-dir for offline scoring. Section `capture`
+// of the config; the command line overrides it. The loop is run_capture_service (src/capture_service.cpp).
 //
 // --measure-encodings N prints bytes per frame of every encoding for the first N frames of the
 // source and exits (no LCM).
 
-#include "mfot/capture/capture_service.hpp"
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/service/group_security.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/service_main.hpp"
-
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <CLI/CLI.hpp>
 #include <string>
+
+#include "mfot/capture/capture_service.hpp"
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/group_security.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/service_main.hpp"
 
 int main(int argc, char** argv) {
   using namespace mfot::capture;
   using namespace mfot::service;
-  CLI::App app{"mfot-capture: publish RGB-D frames (frame_t) on MFOT_FRAME from the simulator, a TUM folder, "
-               "an .oni recording or an OpenNI2 camera"};
+  CLI::App app{
+      "mfot-capture: publish RGB-D frames (frame_t) on MFOT_FRAME from the simulator, a TUM folder, "
+      "an .oni recording or an OpenNI2 camera"};
   std::string config_path;  // empty: the built-in defaults (configs/default.yaml)
   std::string lcm_url_arg;
   CaptureSettings cli;
@@ -41,8 +41,10 @@ int main(int argc, char** argv) {
       "sim scenario: stack | contact | rotate | apart | static | random | spin | tumble | slide | cross | procedural "
       "(procedural seeds: 1-999 development, 1000 and up acceptance only)");
   auto* o_seed = app.add_option("--seed", cli.seed, "sim: scenario and sensor-noise seed");
-  auto* o_sim_frames = app.add_option("--sim-frames", cli.sim_frames, "sim: frames to render, 0 = the scenario's length");
-  auto* o_folder = app.add_option("--folder", cli.tum_folder, "tum: the TUM RGB-D folder; pcd: the folder of organised PCD files");
+  auto* o_sim_frames =
+      app.add_option("--sim-frames", cli.sim_frames, "sim: frames to render, 0 = the scenario's length");
+  auto* o_folder =
+      app.add_option("--folder", cli.tum_folder, "tum: the TUM RGB-D folder; pcd: the folder of organised PCD files");
   auto* o_depth_scale = app.add_option("--depth-scale", cli.depth_scale, "tum: depth PNG units per metre (TUM: 5000)");
   auto* o_log = app.add_option("--log", cli.log_file, "lcmlog: a recorded run's lcm log (its MFOT_FRAME events)");
   auto* o_oni = app.add_option("--oni", cli.oni_file, "oni: the .oni recording");
@@ -52,8 +54,8 @@ int main(int argc, char** argv) {
   auto* o_speed = app.add_option("--speed", cli.speed, "realtime playback speed factor (0, 100]");
   auto* o_timeout = app.add_option("--lockstep-timeout", cli.lockstep_timeout_s,
                                    "lockstep: seconds to wait for the poses of a frame before warning and moving on");
-  auto* o_window = app.add_option("--lockstep-window", cli.lockstep_window,
-                                  "lockstep: frames in flight without poses [1, 8]");
+  auto* o_window =
+      app.add_option("--lockstep-window", cli.lockstep_window, "lockstep: frames in flight without poses [1, 8]");
   auto* o_max = app.add_option("--max-frames", cli.max_frames, "frames to publish, 0 = unlimited");
   auto* o_start = app.add_option("--start-frame", cli.start_frame, "first source frame");
   auto* o_loop = app.add_flag("--loop", cli.loop, "restart a finite source at its end");
@@ -61,8 +63,8 @@ int main(int argc, char** argv) {
                                  "write ground truth (poses.csv, labels/) of sources that have it to this folder");
   auto* o_depth = app.add_option("--depth-encoding", depth_encoding, "raw | zlib | rvl")
                       ->check(CLI::IsMember({"raw", "zlib", "rvl"}));
-  auto* o_color =
-      app.add_option("--color-encoding", color_encoding, "raw | jpeg | png")->check(CLI::IsMember({"raw", "jpeg", "png"}));
+  auto* o_color = app.add_option("--color-encoding", color_encoding, "raw | jpeg | png")
+                      ->check(CLI::IsMember({"raw", "jpeg", "png"}));
   auto* o_quality = app.add_option("--jpeg-quality", cli.encoding.jpeg_quality, "JPEG quality [1, 100]");
   app.add_option("--measure-encodings", measure,
                  "print bytes per frame of every encoding for the first N source frames and exit (no LCM)");

@@ -6,16 +6,15 @@
 // Writes summary.json, per-run CSV tables and plots.json into --out, prints a table, and runs
 // scripts/mfot-plot on plots.json (PNG figures) unless --no-plots.
 
-#include "mfot/evaluate/evaluation.hpp"
-#include "mfot/evaluate/report.hpp"
-
-#include <CLI/CLI.hpp>
-
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <CLI/CLI.hpp>
 #include <iostream>
 #include <sstream>
+
+#include "mfot/evaluate/evaluation.hpp"
+#include "mfot/evaluate/report.hpp"
 
 extern char** environ;
 
@@ -77,8 +76,9 @@ int run_plotter(const std::string& plotter, const fs::path& spec) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"mfot-evaluate: segmentation accuracy, relative pose error, tracks lost and fitting distance of "
-               "recorded runs against simulator ground truth"};
+  CLI::App app{
+      "mfot-evaluate: segmentation accuracy, relative pose error, tracks lost and fitting distance of "
+      "recorded runs against simulator ground truth"};
   std::string groundtruth_dir, out_dir, frames_text, plotter = MFOT_PLOT_SCRIPT;
   std::vector<std::string> run_texts;
   EvaluationOptions options;

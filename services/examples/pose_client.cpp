@@ -6,13 +6,10 @@
 // Position and orientation are the object -> camera pose (--world: object -> world); roll,
 // pitch and yaw are the Z-Y-X Euler angles, R = Rz(yaw) Ry(pitch) Rx(roll).
 
-#include "mfot/poses_t.hpp"
-#include "mfot/service/lcm_util.hpp"
-
-#include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -20,6 +17,9 @@
 #include <iostream>
 #include <numbers>
 #include <string>
+
+#include "mfot/poses_t.hpp"
+#include "mfot/service/lcm_util.hpp"
 
 namespace {
 
@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
   std::string url, channel = mfot::service::channel::kPoses;
   long long count = 0;
   bool world = false;
-  app.add_option("--lcm-url", url, "LCM URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
+  app.add_option("--lcm-url", url,
+                 "LCM URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)");
   app.add_option("--channel", channel, "channel to subscribe to")->capture_default_str();
   app.add_option("--count", count, "exit after N messages (0: run until Ctrl-C)")->check(CLI::NonNegativeNumber);
   app.add_flag("--world", world, "print the world-frame pose instead of the camera-frame pose");

@@ -3,6 +3,16 @@
 // config sections as the services. It measures the method without the transport (compare its
 // rate with scripts/mfot-run's) and serves integration tests and baselines.
 
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <vector>
+
 #include "mfot/capture/capture_settings.hpp"
 #include "mfot/percentile.hpp"
 #include "mfot/service/inprocess_pipeline.hpp"
@@ -11,16 +21,6 @@
 #include "mfot/service/run_outputs.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/tum_dataset.hpp"
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include <chrono>
-#include <ctime>
-#include <fstream>
-#include <memory>
-#include <optional>
-#include <vector>
 
 namespace mfot::service {
 namespace {
@@ -56,9 +56,8 @@ int run(const Options& cli) {
   std::unique_ptr<GroundTruthWriter> truth_writer;
   std::ofstream timing;  // per-frame time, compared with the baselines' (scripts/bench-baselines)
   if (!cli.out_dir.empty()) {
-    outputs = std::make_unique<RunOutputs>(cli.out_dir, false,
-                                           RunOutputsOptions{merger.write_labels, merger.fitting_distance, false},
-                                           malformed);
+    outputs = std::make_unique<RunOutputs>(
+        cli.out_dir, false, RunOutputsOptions{merger.write_labels, merger.fitting_distance, false}, malformed);
     truth_writer = std::make_unique<GroundTruthWriter>(cli.out_dir + "/groundtruth");
     truth_writer->write_scene(source->scene_yaml());
     timing.open(cli.out_dir + "/timing.csv");
@@ -131,7 +130,8 @@ int main(int argc, char** argv) {
   app.add_option("--backend", options.backend, "likelihood backend")
       ->check(CLI::IsMember({"auto", "cuda", "cpu", "point-to-point"}));
   app.add_option("--out", options.out_dir, "write poses.csv, labels/, fitting.csv, timing.csv and groundtruth/ here");
-  app.add_option("--json", options.json_path, "write the summary (frames, frames/s, per-frame and per-stage ms) as JSON");
+  app.add_option("--json", options.json_path,
+                 "write the summary (frames, frames/s, per-frame and per-stage ms) as JSON");
   CLI11_PARSE(app, argc, argv);
   setup_logging("inprocess", 0);
   install_signal_handlers();

@@ -4,21 +4,21 @@
 // workers); LcmMergerLink publishes models, segmentation and the controller-facing poses and
 // writes the run folder.
 
-#include "mfot/service/group_security.hpp"
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <optional>
+#include <string>
+
 #include "mfot/service/config.hpp"
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/merger_core.hpp"
 #include "mfot/service/merger_link.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/status.hpp"
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include <chrono>
-#include <optional>
-#include <string>
 
 namespace mfot::service {
 namespace {
@@ -35,7 +35,8 @@ struct CoreSubscriber {
 int run_merger(lcm::LCM& lcm, const MergerConfig& config, const std::optional<std::string>& output_dir, bool append) {
   StatusReporter status(lcm, "merger", 0, "cpu");
   LcmMergerLink link(lcm, status, config, output_dir, append);
-  MergerCore core(merger_core_options(config), link, status.malformed(), [] { return std::chrono::steady_clock::now(); });
+  MergerCore core(merger_core_options(config), link, status.malformed(),
+                  [] { return std::chrono::steady_clock::now(); });
   CoreSubscriber subscriber{core};
   lcm.subscribe(channel::kScene, &CoreSubscriber::on_scene, &subscriber);
   lcm.subscribe(channel::kEstimate, &CoreSubscriber::on_estimate, &subscriber);

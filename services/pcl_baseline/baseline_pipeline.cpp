@@ -1,13 +1,13 @@
 #include "baseline_pipeline.hpp"
 
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/options.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
+
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/options.hpp"
 
 namespace mfot::service {
 
@@ -60,7 +60,6 @@ BaselineConfig load_baseline_config(const std::string& path) {
   }
   return c;
 }
-
 
 namespace {
 

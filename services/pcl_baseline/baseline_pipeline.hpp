@@ -6,7 +6,11 @@
 // point (our Segmenter, merger.tau). PCL's tracker has a fixed reference and never adds objects: no
 // model update and no new objects after the first frame.
 
-#include "pcl_object_tracker.hpp"
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
 
 #include "mfot/object_manager.hpp"
 #include "mfot/preprocessing.hpp"
@@ -14,12 +18,7 @@
 #include "mfot/service/config.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
-
-#include <cstdint>
-#include <map>
-#include <memory>
-#include <string>
-#include <vector>
+#include "pcl_object_tracker.hpp"
 
 namespace mfot::service {
 

@@ -13,19 +13,9 @@
 // API cannot seed, and from the C library's rand(), which we seed from pcl_baseline.seed. Runs are
 // therefore not bit-reproducible, unlike mfot's.
 
-#include "baseline_pipeline.hpp"
-
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/percentile.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/pipeline_config.hpp"
-#include "mfot/service/run_outputs.hpp"
-#include "mfot/service/service_main.hpp"
-#include "mfot/service/tum_dataset.hpp"
-
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
@@ -34,6 +24,15 @@
 #include <numeric>
 #include <optional>
 #include <vector>
+
+#include "baseline_pipeline.hpp"
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/percentile.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/run_outputs.hpp"
+#include "mfot/service/service_main.hpp"
+#include "mfot/service/tum_dataset.hpp"
 
 namespace mfot::service {
 namespace {
@@ -60,8 +59,8 @@ int run(const Options& cli) {
   const MergerConfig merger = load_merger_config(root);
   const BaselineConfig baseline = load_baseline_config(cli.baseline_config_path);
   std::srand(baseline.seed);  // the one generator of PCL's tracker that can be seeded (see the top)
-  BaselinePipeline pipeline({capture.encoding, load_preprocess_config(root).preprocessor, merger.manager,
-                             baseline.tracker});
+  BaselinePipeline pipeline(
+      {capture.encoding, load_preprocess_config(root).preprocessor, merger.manager, baseline.tracker});
 
   auto source = capture::make_source(capture, [] { return stop_requested(); });
   MalformedCounter malformed;  // undecodable frames for label images (none: the frames are our own)
@@ -69,9 +68,8 @@ int run(const Options& cli) {
   std::unique_ptr<GroundTruthWriter> truth_writer;
   std::ofstream timing;
   if (!cli.out_dir.empty()) {
-    outputs = std::make_unique<RunOutputs>(cli.out_dir, false,
-                                           RunOutputsOptions{merger.write_labels, merger.fitting_distance, false},
-                                           malformed);
+    outputs = std::make_unique<RunOutputs>(
+        cli.out_dir, false, RunOutputsOptions{merger.write_labels, merger.fitting_distance, false}, malformed);
     truth_writer = std::make_unique<GroundTruthWriter>(cli.out_dir + "/groundtruth");
     timing.open(cli.out_dir + "/timing.csv");
     if (!timing) throw std::runtime_error(cli.out_dir + "/timing.csv: cannot create file");
@@ -108,9 +106,10 @@ int run(const Options& cli) {
   const double mean = frame_ms_all.empty() ? 0.0
                                            : std::accumulate(frame_ms_all.begin(), frame_ms_all.end(), 0.0) /
                                                  static_cast<double>(frame_ms_all.size());
-  spdlog::info("{} frames in {:.2f} s: {:.1f} frames/s; per frame mean {:.1f} ms, p50 {:.1f} ms, p99 {:.1f} ms; {} objects",
-               seq, seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), mean, percentile(frame_ms_all, 0.5),
-               percentile(frame_ms_all, 0.99), pipeline.objects().size());
+  spdlog::info(
+      "{} frames in {:.2f} s: {:.1f} frames/s; per frame mean {:.1f} ms, p50 {:.1f} ms, p99 {:.1f} ms; {} objects", seq,
+      seconds, static_cast<double>(seq) / std::max(seconds, 1e-9), mean, percentile(frame_ms_all, 0.5),
+      percentile(frame_ms_all, 0.99), pipeline.objects().size());
   return seq > 0 ? 0 : 1;
 }
 
@@ -131,7 +130,5 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   setup_logging("pcl-baseline", 0);
   install_signal_handlers();
-  return run_service_main([&] {
-    return run(options);
-  });
+  return run_service_main([&] { return run(options); });
 }

@@ -55,7 +55,8 @@ void PclTrackerSettings::validate() const {
   require(kld_delta > 0.0 && kld_delta < 1.0, "kld_delta", "in (0, 1)");
   require(kld_epsilon > 0.0 && kld_epsilon <= 10.0, "kld_epsilon", "in (0, 10]");
   require(bin_size > 0.0 && bin_size <= 10.0, "bin_size", "in (0, 10]");
-  for (const double s : step_noise_sigma) require(std::isfinite(s) && s >= 0.0 && s <= 1.0, "step_noise_sigma", "6 values in [0, 1]");
+  for (const double s : step_noise_sigma)
+    require(std::isfinite(s) && s >= 0.0 && s <= 1.0, "step_noise_sigma", "6 values in [0, 1]");
   for (const double s : initial_noise_sigma) {
     require(std::isfinite(s) && s >= 0.0 && s <= 1.0, "initial_noise_sigma", "6 values in [0, 1]");
   }
@@ -128,7 +129,8 @@ PclObjectTracker::PclObjectTracker(const PclTrackerSettings& settings, const std
   auto colour = pcl::tracking::HSVColorCoherence<Point>::Ptr(new pcl::tracking::HSVColorCoherence<Point>);
   colour->setWeight(settings.color_weight);
   coherence->addPointCoherence(colour);
-  coherence->setSearchMethod(pcl::search::Octree<Point>::Ptr(new pcl::search::Octree<Point>(settings.octree_resolution)));
+  coherence->setSearchMethod(
+      pcl::search::Octree<Point>::Ptr(new pcl::search::Octree<Point>(settings.octree_resolution)));
   coherence->setMaximumDistance(settings.max_distance);
   tracker->setCloudCoherence(coherence);
 

@@ -17,27 +17,27 @@ namespace mfot::pcl_baseline {
 // The settings of PCL's tracking example (apps/src/openni_tracking.cpp) unless a comment says
 // otherwise; configs/pcl_baseline.yaml documents each key.
 struct MFOT_PCL_EXPORT PclTrackerSettings {
-  int particles = 400;                 // setParticleNum, initial particle count
-  int max_particles = 500;             // setMaximumParticleNum, the KLD bound's ceiling
-  double kld_delta = 0.99;             // setDelta
-  double kld_epsilon = 0.2;            // setEpsilon
-  double bin_size = 0.1;               // setBinSize, every state dimension (m, rad)
+  int particles = 400;       // setParticleNum, initial particle count
+  int max_particles = 500;   // setMaximumParticleNum, the KLD bound's ceiling
+  double kld_delta = 0.99;   // setDelta
+  double kld_epsilon = 0.2;  // setEpsilon
+  double bin_size = 0.1;     // setBinSize, every state dimension (m, rad)
   // Standard deviations (x, y, z in m; roll, pitch, yaw in rad); PCL takes variances.
   std::array<double, 6> step_noise_sigma{0.015, 0.015, 0.015, 0.0949, 0.0949, 0.0949};
   std::array<double, 6> initial_noise_sigma{0.00316, 0.00316, 0.00316, 0.00316, 0.00316, 0.00316};
-  int iterations = 1;                  // setIterationNum
-  double color_weight = 0.1;           // HSVColorCoherence::setWeight (DistanceCoherence keeps weight 1)
-  double max_distance = 0.01;          // ApproxNearestPairPointCloudCoherence::setMaximumDistance, m
-  double octree_resolution = 0.01;     // pcl::search::Octree resolution, m
-  float reference_leaf = 0.01f;        // reference cloud voxel grid (the example's downsampling_grid_size), m
-  int threads = 1;                     // OpenMP threads of the OMP tracker
+  int iterations = 1;               // setIterationNum
+  double color_weight = 0.1;        // HSVColorCoherence::setWeight (DistanceCoherence keeps weight 1)
+  double max_distance = 0.01;       // ApproxNearestPairPointCloudCoherence::setMaximumDistance, m
+  double octree_resolution = 0.01;  // pcl::search::Octree resolution, m
+  float reference_leaf = 0.01f;     // reference cloud voxel grid (the example's downsampling_grid_size), m
+  int threads = 1;                  // OpenMP threads of the OMP tracker
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
 
 struct PlainPose {
-  std::array<float, 3> translation{0.f, 0.f, 0.f};  // object -> camera, m
+  std::array<float, 3> translation{0.f, 0.f, 0.f};    // object -> camera, m
   std::array<float, 4> rotation{0.f, 0.f, 0.f, 1.f};  // unit quaternion x, y, z, w
 };
 

@@ -7,26 +7,26 @@
 // dropped. With preprocess.threads >= 2 depth and colour decode side by side and the
 // Preprocessor splits its work over that many threads (the same scene for any count).
 
-#include "mfot/frame_t.hpp"
-#include "mfot/preprocessing.hpp"
-#include "mfot/scene_cloud_t.hpp"
-#include "mfot/service/group_security.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/convert.hpp"
-#include "mfot/service/frame_gate.hpp"
-#include "mfot/service/pipeline_config.hpp"
-#include "mfot/service/service_main.hpp"
-#include "mfot/service/frame_codec.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/status.hpp"
-
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <deque>
 #include <string>
 #include <utility>
+
+#include "mfot/frame_t.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/frame_gate.hpp"
+#include "mfot/service/group_security.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/service_main.hpp"
+#include "mfot/service/status.hpp"
 
 namespace mfot::service {
 namespace {
@@ -109,7 +109,7 @@ class PreprocessService {
   std::deque<frame_t> pending_;  // in arrival order
   frame_t spare_;                // the next frame is decoded into this one
   std::int64_t dropped_ = 0;
-  FrameGate gate_;               // sizes and sequence of each frame before it is queued
+  FrameGate gate_;  // sizes and sequence of each frame before it is queued
   scene_cloud_t out_{};
 };
 
@@ -136,10 +136,11 @@ int main(int argc, char** argv) {
       spdlog::error("cannot open LCM at {}", lcm_url(lcm_url_arg));
       return 1;
     }
-    spdlog::info("voxel {} m, crop z [{}, {}] m, table removal {}, clustering {} (tolerance {} m), {} threads, "
-                 "queue of {} frames",
-                 options.voxel_size, options.crop_min.z(), options.crop_max.z(), options.remove_plane ? "on" : "off",
-                 options.cluster ? "on" : "off", options.cluster_tolerance, options.threads, config.queue_frames);
+    spdlog::info(
+        "voxel {} m, crop z [{}, {}] m, table removal {}, clustering {} (tolerance {} m), {} threads, "
+        "queue of {} frames",
+        options.voxel_size, options.crop_min.z(), options.crop_max.z(), options.remove_plane ? "on" : "off",
+        options.cluster ? "on" : "off", options.cluster_tolerance, options.threads, config.queue_frames);
     PreprocessService service(lcm, config);
     service.run();
     return 0;

@@ -4,15 +4,15 @@
 // progress (frames done, rate, time left); Ctrl-C stops after the frame being written, and every
 // frame on disk is complete (images are renamed into place before they are listed).
 
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <string>
+
 #include "mfot/capture/sim_source.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/tum_dataset.hpp"
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include <chrono>
-#include <string>
 
 int main(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
 
     const int total = simulator.num_frames();
     spdlog::info("rendering scenario '{}' (seed {}, {}): {} frames at {}x{} to {}", options.scenario.name,
-                 options.scenario.seed, simulator.summary().source_name(), total, options.camera.width, options.camera.height, output);
+                 options.scenario.seed, simulator.summary().source_name(), total, options.camera.width,
+                 options.camera.height, output);
     const auto start = Clock::now();
     auto last_report = start;
     int done = 0;

@@ -5,19 +5,19 @@
 // likelihood backend (JCSD on CUDA or CPU, or the point-to-point baseline) is chosen at run time;
 // each worker owns its CUDA stream.
 
-#include "mfot/service/group_security.hpp"
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <string>
+
 #include "mfot/service/config.hpp"
+#include "mfot/service/group_security.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/status.hpp"
 #include "mfot/service/tracker_worker.hpp"
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include <chrono>
-#include <string>
 
 namespace mfot::service {
 namespace {
@@ -33,7 +33,9 @@ class LcmTrackerLink : public TrackerSink {
   void publish_heartbeat(const heartbeat_t& heartbeat) override {
     publish_message(lcm_, channel::kHeartbeat, heartbeat);
   }
-  void publish_model_report(const object_model_t& report) override { publish_message(lcm_, channel::kModelReport, report); }
+  void publish_model_report(const object_model_t& report) override {
+    publish_message(lcm_, channel::kModelReport, report);
+  }
   void note(const std::string& message) override { status_.set_message(message); }
 
   void subscribe(TrackerWorker& worker, std::int32_t worker_id) {
@@ -95,7 +97,9 @@ int main(int argc, char** argv) {
   int worker_id = 0;
   app.add_option("--config", config_path, "YAML config (section `tracker`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
-  app.add_option("--worker-id", worker_id, "this worker's id, unique in the group")->required()->check(CLI::Range(0, kMaxWorkerId));
+  app.add_option("--worker-id", worker_id, "this worker's id, unique in the group")
+      ->required()
+      ->check(CLI::Range(0, kMaxWorkerId));
   CLI11_PARSE(app, argc, argv);
   setup_logging("tracker", worker_id);
   install_signal_handlers();

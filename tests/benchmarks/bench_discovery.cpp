@@ -8,6 +8,13 @@
 //
 //   mfot_bench_discovery FOLDER [--config FILE] [--background-label-max 9] [--no-pcl]
 
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
 #include "../../services/capture/pcd/pcd_image.hpp"
 #include "mfot/capture/pcd_source.hpp"
 #include "mfot/metrics.hpp"
@@ -17,14 +24,6 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "pcl_lccp_reference.hpp"
-
-#include <CLI/CLI.hpp>
-
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <filesystem>
-#include <string>
 
 namespace {
 
@@ -65,7 +64,8 @@ void write_side_by_side(const std::string& path, const mfot::capture::PcdImage& 
   for (int v = 0; v < image.height; ++v) {
     for (int panel = 0; panel < 3; ++panel) {
       for (int u = 0; u < image.width; ++u) {
-        const std::size_t i = static_cast<std::size_t>(v) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(u);
+        const std::size_t i =
+            static_cast<std::size_t>(v) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(u);
         unsigned char rgb[3];
         if (panel == 0) {
           for (int c = 0; c < 3; ++c) rgb[c] = image.rgb[3 * i + static_cast<std::size_t>(c)];

@@ -7,6 +7,18 @@
 // It also checks that the label images it computes equal the run's RUN/labels/<frame>.png, so a
 // faster label writer is checked against an earlier build's output.
 
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bench_timing.hpp"
 #include "mfot/frame_done_t.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/metrics.hpp"
@@ -18,20 +30,6 @@
 #include "mfot/service/image_io.hpp"
 #include "mfot/service/lcm_log_reader.hpp"
 #include "mfot/service/run_writer.hpp"
-
-#include "bench_timing.hpp"
-
-#include <lcm/lcm-cpp.hpp>
-
-#include <algorithm>
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
-#include <filesystem>
-#include <utility>
-#include <map>
-#include <string>
-#include <vector>
 
 namespace {
 
@@ -96,9 +94,8 @@ int main(int argc, char** argv) {
   const std::string scratch = argc > 3 ? argv[3] : "/tmp";
   const Recorded rec = read_log(argv[1], max_frames);
   const std::string log_path = argv[1];
-  const std::string run_dir = log_path.substr(0, log_path.find_last_of('/') == std::string::npos
-                                                      ? 0
-                                                      : log_path.find_last_of('/'));
+  const std::string run_dir =
+      log_path.substr(0, log_path.find_last_of('/') == std::string::npos ? 0 : log_path.find_last_of('/'));
   int labels_compared = 0, labels_differing = 0;
   std::printf("%zu frames, %zu scenes, %zu segmentations from %s\n", rec.frames.size(), rec.scenes.size(),
               rec.segmentations.size(), argv[1]);
@@ -152,7 +149,8 @@ int main(int argc, char** argv) {
       t = Clock::now();
       mfot::service::write_png16(path, labels, compression);
       series[std::string("label PNG file, ") + name].values.push_back(ms_since(t));
-      series[std::string("label PNG kB, ") + name].values.push_back(static_cast<double>(std::filesystem::file_size(path)) / 1e3);
+      series[std::string("label PNG kB, ") + name].values.push_back(
+          static_cast<double>(std::filesystem::file_size(path)) / 1e3);
       std::filesystem::remove(path);
     }
 
@@ -187,6 +185,7 @@ int main(int argc, char** argv) {
   }
   std::printf("label images equal to the run's: %d of %d\n", labels_compared - labels_differing, labels_compared);
   std::printf("median ms per frame:\n");
-  for (const auto& [name, s] : series) std::printf("  %-32s %8.3f  (%zu frames)\n", name.c_str(), s.median(), s.values.size());
+  for (const auto& [name, s] : series)
+    std::printf("  %-32s %8.3f  (%zu frames)\n", name.c_str(), s.median(), s.values.size());
   return labels_differing == 0 ? 0 : 1;
 }

@@ -6,9 +6,6 @@
 //
 // Usage: mfot_bench_jcsd_cpu [threads=hardware concurrency]
 
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/point_to_point_likelihood.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,6 +14,9 @@
 #include <random>
 #include <thread>
 #include <vector>
+
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/point_to_point_likelihood.hpp"
 
 namespace {
 
@@ -109,7 +109,8 @@ int main(int argc, char** argv) {
     for (mfot::Pose& p : particles) {
       p.translation = truth.translation + 0.01f * Eigen::Vector3f(noise(rng), noise(rng), noise(rng));
       const Eigen::Vector3f axis(noise(rng), noise(rng), noise(rng));
-      p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(0.1f * noise(rng), axis.normalized())) * truth.rotation).normalized();
+      p.rotation =
+          (Eigen::Quaternionf(Eigen::AngleAxisf(0.1f * noise(rng), axis.normalized())) * truth.rotation).normalized();
     }
     std::vector<float> scores(n);
     const double per_particle = 1e6 / static_cast<double>(n);

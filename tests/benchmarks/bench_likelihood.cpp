@@ -10,10 +10,9 @@
 //   --quick  fewer repetitions and no 5000-particle CPU row (for CI smoke runs)
 //   --only   just the object row of that particle count (e.g. to profile one launch shape)
 
+#include "bench_timing.hpp"
 #include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/jcsd_likelihood.hpp"
-
-#include "bench_timing.hpp"
 
 #if MFOT_HAVE_CUDA
 #include "mfot/cuda/cuda_jcsd_likelihood.hpp"
@@ -36,10 +35,10 @@
 
 namespace {
 
-using mfot::bench::Clock;
 using mfot::HypothesisData;
 using mfot::ObjectModel;
 using mfot::Pose;
+using mfot::bench::Clock;
 
 float uniform01(std::mt19937_64& rng) { return static_cast<float>(rng() >> 40) * 0x1.0p-24f; }
 
@@ -52,7 +51,8 @@ float gaussian(std::mt19937_64& rng) {
 // sampled on a `step` lattice, each face in two colours (a printed pattern of stripes).
 ObjectModel make_box_model(const Eigen::Vector3f& size, float step, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  const mfot::Rgb8 palette[6] = {{200, 30, 40}, {240, 220, 200}, {30, 90, 200}, {250, 200, 30}, {40, 160, 60}, {20, 20, 25}};
+  const mfot::Rgb8 palette[6] = {{200, 30, 40},  {240, 220, 200}, {30, 90, 200},
+                                 {250, 200, 30}, {40, 160, 60},   {20, 20, 25}};
   ObjectModel model;
   const Eigen::Vector3f half = size / 2.f;
   for (int face = 0; face < 3; ++face) {
@@ -87,7 +87,7 @@ HypothesisData make_hypothesis(const ObjectModel& model, const Pose& truth, std:
       data.colors.push_back(model.cloud.colors[j]);
     } else {
       data.points.push_back(truth.translation + 0.15f * Eigen::Vector3f(uniform01(rng) - 0.5f, uniform01(rng) - 0.5f,
-                                                                      uniform01(rng) - 0.5f));
+                                                                        uniform01(rng) - 0.5f));
       data.colors.push_back({static_cast<std::uint8_t>(rng() & 0xff), static_cast<std::uint8_t>((rng() >> 8) & 0xff),
                              static_cast<std::uint8_t>((rng() >> 16) & 0xff)});
     }
@@ -102,7 +102,8 @@ std::vector<Pose> make_particles(const Pose& truth, std::size_t n, float sigma_t
   for (Pose& p : particles) {
     p.translation += sigma_t * Eigen::Vector3f(gaussian(rng), gaussian(rng), gaussian(rng));
     const Eigen::Vector3f w = sigma_r * Eigen::Vector3f(gaussian(rng), gaussian(rng), gaussian(rng));
-    if (w.norm() > 0.f) p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(w.norm(), w.normalized())) * p.rotation).normalized();
+    if (w.norm() > 0.f)
+      p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(w.norm(), w.normalized())) * p.rotation).normalized();
   }
   return particles;
 }
@@ -116,8 +117,8 @@ struct Scene {
   std::array<std::vector<Pose>, 4> particle_sets;
 };
 
-Scene make_scene(const Eigen::Vector3f& size, std::size_t points, std::size_t particles, float sigma_t,
-                 float sigma_r, std::uint64_t seed) {
+Scene make_scene(const Eigen::Vector3f& size, std::size_t points, std::size_t particles, float sigma_t, float sigma_r,
+                 std::uint64_t seed) {
   Scene scene;
   scene.model = make_box_model(size, 0.005f, seed);
   Pose truth;
@@ -291,7 +292,8 @@ int main(int argc, char** argv) {
   // A frame of 3 objects, 1000 particles and 2000 hypothesis points each, evaluated one object
   // after the other (one likelihood instance per object, as the tracker holds them).
   if (only == 0) {
-    const std::array<Eigen::Vector3f, 3> sizes{Eigen::Vector3f(0.20f, 0.12f, 0.08f), Eigen::Vector3f(0.16f, 0.16f, 0.10f),
+    const std::array<Eigen::Vector3f, 3> sizes{Eigen::Vector3f(0.20f, 0.12f, 0.08f),
+                                               Eigen::Vector3f(0.16f, 0.16f, 0.10f),
                                                Eigen::Vector3f(0.25f, 0.10f, 0.07f)};
     std::array<Scene, 3> scenes;
     std::array<std::unique_ptr<mfot::JcsdLikelihood>, 3> cpus;
@@ -305,7 +307,8 @@ int main(int argc, char** argv) {
     std::vector<double> cpu_times;
     for (int r = 0; r < cpu_reps; ++r) {
       const auto start = Clock::now();
-      for (std::size_t o = 0; o < 3; ++o) cpus[o]->evaluate(scenes[o].particle_sets[static_cast<std::size_t>(r) % 4], scenes[o].data, scores);
+      for (std::size_t o = 0; o < 3; ++o)
+        cpus[o]->evaluate(scenes[o].particle_sets[static_cast<std::size_t>(r) % 4], scenes[o].data, scores);
       cpu_times.push_back(ms_since(start));
     }
     row.cpu = median(cpu_times);
@@ -364,9 +367,8 @@ int main(int argc, char** argv) {
   }
 #endif
 
-  std::printf("\n%-12s %9s %6s %10s %11s %11s %11s %9s %9s %9s %9s %9s\n", "case", "particles", "points",
-              "cpu_ms", "gpu_kern_ms", "gpu_dev_ms", "gpu_wall_ms", "speedup", "spd_kern", "parity",
-              "thesis_cpu", "thesis_gpu");
+  std::printf("\n%-12s %9s %6s %10s %11s %11s %11s %9s %9s %9s %9s %9s\n", "case", "particles", "points", "cpu_ms",
+              "gpu_kern_ms", "gpu_dev_ms", "gpu_wall_ms", "speedup", "spd_kern", "parity", "thesis_cpu", "thesis_gpu");
   std::ofstream csv;
   if (!csv_path.empty()) {
     csv.open(csv_path);
@@ -387,10 +389,11 @@ int main(int argc, char** argv) {
           << fmt(r.thesis_gpu, 2) << ",\"" << device << "\"," << date << '\n';
     }
   }
-  std::printf("\ncpu_ms: JcsdLikelihood, 1 thread. gpu_kern_ms: scoring kernel (CUDA events). gpu_dev_ms: uploads +\n"
-              "kernel + download (CUDA events). gpu_wall_ms: one evaluate() call. speedup = cpu_ms / gpu_wall_ms,\n"
-              "spd_kern = cpu_ms / gpu_kern_ms. parity: largest relative CPU/GPU score difference. Medians.\n"
-              "Particles: sigma 5 mm / 0.03 rad around the true pose (object-wide: 3 cm / 0.3 rad).\n");
+  std::printf(
+      "\ncpu_ms: JcsdLikelihood, 1 thread. gpu_kern_ms: scoring kernel (CUDA events). gpu_dev_ms: uploads +\n"
+      "kernel + download (CUDA events). gpu_wall_ms: one evaluate() call. speedup = cpu_ms / gpu_wall_ms,\n"
+      "spd_kern = cpu_ms / gpu_kern_ms. parity: largest relative CPU/GPU score difference. Medians.\n"
+      "Particles: sigma 5 mm / 0.03 rad around the true pose (object-wide: 3 cm / 0.3 rad).\n");
   if (!have_gpu) std::printf("GPU n/a: %s\n", why.c_str());
   return 0;
 }

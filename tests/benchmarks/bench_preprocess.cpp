@@ -6,11 +6,6 @@
 //
 // Usage: bench_preprocess [repetitions=10] [threads=1]
 
-#include "mfot/preprocessing.hpp"
-#include "mfot/sim/simulator.hpp"
-
-#include "bench_timing.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -18,6 +13,10 @@
 #include <ctime>
 #include <string>
 #include <vector>
+
+#include "bench_timing.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/sim/simulator.hpp"
 
 #if MFOT_BENCH_PCL
 #include "bench_preprocess_pcl.hpp"
@@ -36,8 +35,8 @@ void print_row(const char* name, const Series& s) {
 
 // The points the voxel stage sees: back-projected, cropped and above the plane (as Preprocessor).
 void kept_points(const mfot::sim::RenderedFrame& f, const mfot::PreprocessorOptions& options,
-                 const mfot::TablePlane& plane, std::vector<Eigen::Vector3f>& positions, std::vector<mfot::Rgb8>& colors,
-                 std::vector<std::uint32_t>& ids, bool above_plane_only) {
+                 const mfot::TablePlane& plane, std::vector<Eigen::Vector3f>& positions,
+                 std::vector<mfot::Rgb8>& colors, std::vector<std::uint32_t>& ids, bool above_plane_only) {
   positions.clear();
   colors.clear();
   ids.clear();
@@ -72,7 +71,8 @@ int main(int argc, char** argv) {
   const mfot::sim::Simulator simulator(sim_options);
   constexpr int kFrames = 24;
   std::vector<mfot::sim::RenderedFrame> frames;
-  for (int i = 0; i < kFrames; ++i) frames.push_back(simulator.render(i * (simulator.num_frames() - 1) / (kFrames - 1)));
+  for (int i = 0; i < kFrames; ++i)
+    frames.push_back(simulator.render(i * (simulator.num_frames() - 1) / (kFrames - 1)));
   const auto& k = frames.front().intrinsics;
   std::printf("bench_preprocess: %d x %d frames, %d frames of sim 'stack' x %d repetitions, %d thread%s\n", k.width,
               k.height, kFrames, repetitions, threads, threads == 1 ? "" : "s");
@@ -114,8 +114,8 @@ int main(int argc, char** argv) {
     print_row("    total (stages)", total);
     print_row("    total (process call)", wall);
     print_row("    CPU time (process call)", cpu);
-    std::printf("  ms per frame (process call, %d thread%s): mean %.3f, median %.3f\n", threads, threads == 1 ? "" : "s",
-                wall.mean(), wall.percentile(0.5));
+    std::printf("  ms per frame (process call, %d thread%s): mean %.3f, median %.3f\n", threads,
+                threads == 1 ? "" : "s", wall.mean(), wall.percentile(0.5));
     std::printf("  points: cropped %.0f, above plane %.0f, voxels %.0f, clusters %.1f (means)\n", cropped.mean(),
                 above.mean(), voxels.mean(), clusters.mean());
   }
@@ -174,7 +174,8 @@ int main(int argc, char** argv) {
 #endif
     }
     const double runs = static_cast<double>(frames.size()) * repetitions;
-    std::printf("voxel grid 5 mm on %s (mean %.0f points):\n", above_only ? "the above-plane points" : "all cropped points",
+    std::printf("voxel grid 5 mm on %s (mean %.0f points):\n",
+                above_only ? "the above-plane points" : "all cropped points",
                 points / static_cast<double>(frames.size()));
     print_row("mfot::VoxelDownsampler", ours_ms);
     std::printf("  %-28s mean %.0f voxels\n", "", ours_voxels / runs);

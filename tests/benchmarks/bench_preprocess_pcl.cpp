@@ -32,7 +32,8 @@ PclVoxelGridResult pcl_voxel_grid(const std::vector<float>& xyz, const std::vect
   for (int r = 0; r < repetitions; ++r) {
     const auto start = std::chrono::steady_clock::now();
     grid.filter(filtered);
-    result.filter_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    result.filter_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
   }
   result.voxels = filtered.size();
   return result;

@@ -4,14 +4,14 @@
 //
 // Usage: mfot_bench_sim [frames_per_scenario (default 60)]
 
-#include "mfot/sim/simulator.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <string>
+
+#include "mfot/sim/simulator.hpp"
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(1, std::atoi(argv[1])) : 60;

@@ -2,13 +2,13 @@
 // Wall-clock timing shared by the benchmark binaries: steady-clock milliseconds and the summary
 // figures of a series of per-frame or per-call times.
 
-#include "mfot/percentile.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <utility>
 #include <vector>
+
+#include "mfot/percentile.hpp"
 
 namespace mfot::bench {
 

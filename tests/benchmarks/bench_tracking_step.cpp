@@ -11,19 +11,18 @@
 //
 // Usage: mfot_bench_tracking_step [--frames N]
 
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include "../core/synthetic_object.hpp"
+#include "bench_timing.hpp"
 #include "mfot/estimate_fit.hpp"
 #include "mfot/hypothesis.hpp"
 #include "mfot/jcsd_likelihood.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/tracking_step.hpp"
-
-#include "../core/synthetic_object.hpp"
-#include "bench_timing.hpp"
-
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <string>
 
 namespace {
 
@@ -109,7 +108,9 @@ int main(int argc, char** argv) {
 
   std::printf("model %zu points, 100 particles, %d frames (median ms per object and frame)\n\n", model.cloud.size(),
               frames);
-  std::printf("| motion model | hypothesis points | TrackingStep | of it: EstimateFit | share | frames ICP-refined |\n|---|---:|---:|---:|---:|---:|\n");
+  std::printf(
+      "| motion model | hypothesis points | TrackingStep | of it: EstimateFit | share | frames ICP-refined "
+      "|\n|---|---:|---:|---:|---:|---:|\n");
   for (const Row& row : rows) {
     mfot::JcsdLikelihood likelihood;
     likelihood.set_model(model);
@@ -121,7 +122,8 @@ int main(int argc, char** argv) {
     int icp_refined = 0;
     for (int f = 1; f <= frames; ++f) {
       const auto t0 = Clock::now();
-      const mfot::TrackingStepResult r = step.track(scenes[static_cast<std::size_t>(f)], model, box, filter, likelihood);
+      const mfot::TrackingStepResult r =
+          step.track(scenes[static_cast<std::size_t>(f)], model, box, filter, likelihood);
       total.add(ms_since(t0));
       const auto t1 = Clock::now();
       const float c = fit.fit(step.hypothesis(), model, box, r.estimate);

@@ -2,15 +2,14 @@
 // A ray-cast table-top RGB-D frame for the preprocessing tests and benchmark: a finite table
 // (world plane z = 0) with axis-aligned boxes on it, seen by a pinhole camera looking at a target.
 
-#include "mfot/preprocessing.hpp"
-
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <random>
 #include <vector>
+
+#include "mfot/preprocessing.hpp"
 
 namespace mfot::test_scene {
 

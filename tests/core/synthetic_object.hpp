@@ -2,15 +2,15 @@
 // Synthetic coloured objects for the core tests: box surfaces with coloured faces (optionally
 // split into two colours per face), poses, occlusion and error measures.
 
-#include "mfot/likelihood.hpp"
-#include "mfot/smr_feature.hpp"
-#include "mfot/types.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
+
+#include "mfot/likelihood.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot::test {
 
@@ -34,8 +34,7 @@ inline constexpr std::array<Rgb8, 6> kSixColours{kRed, kCyan, kYellow, kBlue, kG
 // second_colors[f] instead (a texture that breaks in-face symmetry).
 inline ColoredCloud make_colored_box(const Eigen::Vector3f& size, float spacing,
                                      const std::array<Rgb8, 6>& face_colors = kSixColours,
-                                     const std::array<Rgb8, 6>* second_colors = nullptr,
-                                     float phase = 0.f) {
+                                     const std::array<Rgb8, 6>* second_colors = nullptr, float phase = 0.f) {
   ColoredCloud cloud;
   const Eigen::Vector3f half = 0.5f * size;
   for (int axis = 0; axis < 3; ++axis) {
@@ -65,8 +64,7 @@ inline ColoredCloud make_colored_box(const Eigen::Vector3f& size, float spacing,
 inline const Eigen::Vector3f kTestObjectSize(0.10f, 0.15f, 0.08f);  // make_test_object's edge lengths, metres
 inline ColoredCloud make_test_object(float phase = 0.f, float spacing = 0.008f, bool textured = false) {
   static constexpr std::array<Rgb8, 6> kSecond{kWhite, kBlack, kWhite, kBlack, kWhite, kBlack};
-  return make_colored_box(kTestObjectSize, spacing, kSixColours,
-                          textured ? &kSecond : nullptr, phase);
+  return make_colored_box(kTestObjectSize, spacing, kSixColours, textured ? &kSecond : nullptr, phase);
 }
 
 // The outward normal of the face a point of a box cloud (make_colored_box with edge lengths size, object
@@ -142,8 +140,6 @@ inline float radians(float degrees) { return degrees * std::numbers::pi_v<float>
 
 inline float translation_error(const Pose& a, const Pose& b) { return (a.translation - b.translation).norm(); }
 // Angle of the relative rotation between two poses, radians.
-inline float rotation_error(const Pose& a, const Pose& b) {
-  return a.rotation.angularDistance(b.rotation);
-}
+inline float rotation_error(const Pose& a, const Pose& b) { return a.rotation.angularDistance(b.rotation); }
 
 }  // namespace mfot::test

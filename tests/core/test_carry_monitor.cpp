@@ -1,13 +1,13 @@
-#include "mfot/carry_monitor.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <functional>
-#include <string>
 #include <stdexcept>
+#include <string>
 #include <vector>
+
+#include "mfot/carry_monitor.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -21,10 +21,11 @@ CarryOptions carry_options() {
 // A hand (id 2) that moves 1 cm and turns 3 degrees a frame about an oblique axis, and a box (id 1)
 // gripped 8 cm from its origin: the box's pose is the hand's times a fixed relative pose.
 struct Carrying {
-  Eigen::Isometry3f relative = test::make_pose(Eigen::Vector3f(0.08f, -0.02f, 0.01f), Eigen::Vector3f::UnitZ(), 0.4f).isometry();
+  Eigen::Isometry3f relative =
+      test::make_pose(Eigen::Vector3f(0.08f, -0.02f, 0.01f), Eigen::Vector3f::UnitZ(), 0.4f).isometry();
   Pose hand_at(int frame) const {
-    return test::make_pose(Eigen::Vector3f(0.01f * static_cast<float>(frame), 0.f, 1.f), Eigen::Vector3f(1.f, 0.3f, 0.2f),
-                           test::radians(3.f * static_cast<float>(frame)));
+    return test::make_pose(Eigen::Vector3f(0.01f * static_cast<float>(frame), 0.f, 1.f),
+                           Eigen::Vector3f(1.f, 0.3f, 0.2f), test::radians(3.f * static_cast<float>(frame)));
   }
   Pose box_at(int frame) const { return Pose::from_isometry(hand_at(frame).isometry() * relative); }
 };
@@ -78,10 +79,10 @@ TEST(CarryMonitor, ASlowDriftOverALongGripKeepsTheWatchAFastOneBreaksIt) {
         std::vector<CarryMonitor::Object>{{1, box_at(39), true}, {2, scene.hand_at(40), false}}, kAlwaysTouch);
     ASSERT_EQ(carried.size(), slow ? 1u : 0u);
     if (!slow) continue;
-    EXPECT_LT(test::translation_error(carried[0].pose, Pose::from_isometry(scene.hand_at(40).isometry() *
-                                                                                     scene.hand_at(39).isometry().inverse() *
-                                                                                     box_at(39).isometry())),
-                        1e-4f);
+    EXPECT_LT(test::translation_error(
+                  carried[0].pose, Pose::from_isometry(scene.hand_at(40).isometry() *
+                                                       scene.hand_at(39).isometry().inverse() * box_at(39).isometry())),
+              1e-4f);
   }
 }
 
@@ -104,13 +105,16 @@ TEST(CarryMonitor, StillApartShortOrForgottenCompanionsCarryNothing) {
   }
   {  // a hand resting beside the box: it never moved
     CarryMonitor monitor(carry_options());
-    EXPECT_EQ(hide_after(monitor, [&](int) { return scene.hand_at(0); }, [&](int) { return scene.box_at(0); }, 20,
-                         kAlwaysTouch),
-              0u);
+    EXPECT_EQ(
+        hide_after(
+            monitor, [&](int) { return scene.hand_at(0); }, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch),
+        0u);
   }
   {  // a hand passing over a still box: their relative pose drifts beyond the tolerance
     CarryMonitor monitor(carry_options());
-    EXPECT_EQ(hide_after(monitor, hand, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch), 0u);
+    EXPECT_EQ(hide_after(
+                  monitor, hand, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch),
+              0u);
   }
   {  // a hand creeping past a still box, 0.5 cm a frame: each 5-frame window stays within the 3 cm tolerance and
      // the hand moves 10 cm in all, but the box never moved with it (`stack` seed 36: an arm drifting over a can
@@ -121,7 +125,9 @@ TEST(CarryMonitor, StillApartShortOrForgottenCompanionsCarryNothing) {
       p.translation.x() += 0.005f * static_cast<float>(f);
       return p;
     };
-    EXPECT_EQ(hide_after(monitor, creeping, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch), 0u);
+    EXPECT_EQ(hide_after(
+                  monitor, creeping, [&](int) { return scene.box_at(0); }, 20, kAlwaysTouch),
+              0u);
   }
   {  // moving together but never touching
     CarryMonitor monitor(carry_options());
@@ -152,7 +158,8 @@ TEST(CarryMonitor, StillApartShortOrForgottenCompanionsCarryNothing) {
 TEST(CarryMonitor, TheLongestCompanionCarries) {
   const Carrying scene;
   CarryMonitor monitor(carry_options());
-  const Eigen::Isometry3f other_offset = test::make_pose(Eigen::Vector3f(0.f, 0.1f, 0.f), Eigen::Vector3f::UnitX(), 0.f).isometry();
+  const Eigen::Isometry3f other_offset =
+      test::make_pose(Eigen::Vector3f(0.f, 0.1f, 0.f), Eigen::Vector3f::UnitX(), 0.f).isometry();
   // Object 3 moves with the box too, but joins it five frames after the hand.
   for (int frame = 0; frame < 15; ++frame) {
     const Pose other = frame < 5 ? scene.box_at(0) : Pose::from_isometry(scene.box_at(frame).isometry() * other_offset);
@@ -160,9 +167,10 @@ TEST(CarryMonitor, TheLongestCompanionCarries) {
         {1, scene.box_at(frame), false}, {2, scene.hand_at(frame), false}, {3, other, false}};
     monitor.update(seen, kAlwaysTouch);
   }
-  const std::vector<CarryMonitor::Object> hidden{{1, scene.box_at(14), true},
-                                                  {2, scene.hand_at(15), false},
-                                                  {3, Pose::from_isometry(scene.box_at(15).isometry() * other_offset), false}};
+  const std::vector<CarryMonitor::Object> hidden{
+      {1, scene.box_at(14), true},
+      {2, scene.hand_at(15), false},
+      {3, Pose::from_isometry(scene.box_at(15).isometry() * other_offset), false}};
   const auto& carried = monitor.update(hidden, kAlwaysTouch);
   ASSERT_EQ(carried.size(), 1u);
   EXPECT_EQ(carried[0].carrier, 2);
@@ -220,7 +228,10 @@ TEST(CarryMonitor, ABoxCoveredBeforeItIsGrippedFollowsTheHandOnceItsHeldPoseIsSe
   for (; frame < 3; ++frame) {
     const std::vector<CarryMonitor::Object> seen{
         {1, scene.box_at(frame), false}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
-    EXPECT_TRUE(monitor.update(seen, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+    EXPECT_TRUE(monitor
+                    .update(
+                        seen, [](std::int32_t, std::int32_t) { return false; }, seen_through)
+                    .empty());
   }
   // Hidden and held where it rests; the hand moves off its grip from frame 10.
   Pose held = scene.box_at_rest;
@@ -252,7 +263,10 @@ TEST(CarryMonitor, ABoxCoveredBeforeItIsGrippedFollowsTheHandOnceItsHeldPoseIsSe
   EXPECT_TRUE(monitor.update(seen, touch, seen_through).empty());
   const std::vector<CarryMonitor::Object> hidden{
       {1, scene.box_at(16), true}, {2, scene.hand_at(20), false}, {3, scene.tall_box, false}};
-  EXPECT_TRUE(monitor.update(hidden, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+  EXPECT_TRUE(monitor
+                  .update(
+                      hidden, [](std::int32_t, std::int32_t) { return false; }, seen_through)
+                  .empty());
 }
 
 // With gripped_away kRetire the same grip is reported from the same frame, gripped away by the hand, at
@@ -270,7 +284,10 @@ TEST(CarryMonitor, ABoxGrippedAwayWhileHiddenIsReportedAtItsHeldPoseToRetire) {
   for (; frame < 3; ++frame) {
     const std::vector<CarryMonitor::Object> seen{
         {1, scene.box_at(frame), false}, {2, scene.hand_at(frame), false}, {3, scene.tall_box, false}};
-    EXPECT_TRUE(monitor.update(seen, [](std::int32_t, std::int32_t) { return false; }, seen_through).empty());
+    EXPECT_TRUE(monitor
+                    .update(
+                        seen, [](std::int32_t, std::int32_t) { return false; }, seen_through)
+                    .empty());
   }
   for (; frame <= 12; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
@@ -312,14 +329,18 @@ TEST(CarryMonitor, ABoxStillWhereItIsHeldOrNotWhereTheHandWouldCarryItIsNotCarri
   }
   {  // the box stays where it is held (the hand leaves it)
     CarryMonitor monitor(seen_through_options());
-    EXPECT_EQ(carried_frames(monitor, [&](int) { return scene.box_at_rest; }, touch), 0);
+    EXPECT_EQ(carried_frames(
+                  monitor, [&](int) { return scene.box_at_rest; }, touch),
+              0);
   }
   {  // its held pose had drifted 6 cm off the box, which stays: seen through where it is held and where
      // the hand would carry it
     CarryMonitor monitor(seen_through_options());
     Pose truth = scene.box_at_rest;
     truth.translation.x() += 0.06f;
-    EXPECT_EQ(carried_frames(monitor, [&](int) { return truth; }, touch), 0);
+    EXPECT_EQ(carried_frames(
+                  monitor, [&](int) { return truth; }, touch),
+              0);
   }
   {  // the hand never touched it while it was hidden
     CarryMonitor monitor(seen_through_options());

@@ -1,11 +1,11 @@
-#include "mfot/companion_motion.hpp"
-#include "mfot/particle_filter.hpp"
-#include "expect_invalid_argument.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/companion_motion.hpp"
+#include "mfot/particle_filter.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {

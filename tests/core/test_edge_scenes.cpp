@@ -2,16 +2,6 @@
 // ParticleFilter + CPU JCSD likelihood per object -> ObjectManager): nothing in view, a single
 // measured pixel, non-finite input, an object leaving the view, and twenty objects at once.
 
-#include "mfot/estimate_fit.hpp"
-#include "mfot/hypothesis.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/object_manager.hpp"
-#include "mfot/particle_filter.hpp"
-#include "mfot/preprocessing.hpp"
-#include "mfot/smr_feature.hpp"
-#include "expect_invalid_argument.hpp"
-#include "preprocess_test_scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -19,6 +9,16 @@
 #include <map>
 #include <memory>
 #include <set>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/estimate_fit.hpp"
+#include "mfot/hypothesis.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/smr_feature.hpp"
+#include "preprocess_test_scene.hpp"
 
 namespace mfot {
 namespace {
@@ -203,8 +203,8 @@ TEST(EdgeScenes, ObjectLeavingTheViewIsRetiredWithoutNaNPoses) {
   CorePipeline pipeline;
   const test_scene::Camera camera;
   test_scene::Scene scene;
-  scene.boxes.push_back(cube_at(0.f, 0.f, Rgb8{30, 180, 40}));     // stays
-  scene.boxes.push_back(cube_at(0.30f, 0.f, Rgb8{200, 30, 30}));   // slides out of the view (+x)
+  scene.boxes.push_back(cube_at(0.f, 0.f, Rgb8{30, 180, 40}));    // stays
+  scene.boxes.push_back(cube_at(0.30f, 0.f, Rgb8{200, 30, 30}));  // slides out of the view (+x)
   const float step_m = 0.015f;
   int left_view_at = -1;  // first frame the moving cube has no pixel in the image
   std::int32_t moving_id = 0;

@@ -1,11 +1,11 @@
-#include "mfot/estimate_fit.hpp"
-#include "mfot/hypothesis.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
 #include <stdexcept>
+
+#include "mfot/estimate_fit.hpp"
+#include "mfot/hypothesis.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -34,7 +34,8 @@ struct SeenBox {
   }
 };
 
-const std::array<Eigen::Vector3f, 3> kAxes{Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), Eigen::Vector3f::UnitZ()};
+const std::array<Eigen::Vector3f, 3> kAxes{Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(),
+                                           Eigen::Vector3f::UnitZ()};
 
 TEST(EstimateFit, ARightEstimateFitsAndTurnedOnesFitLessTheMoreTheyAreTurned) {
   const SeenBox box;
@@ -60,8 +61,9 @@ TEST(EstimateFit, ASameOutlineTurnedOntoOtherFacesFailsOnColour) {
   const SeenBox box;
   const HypothesisData data = box.seen();
   Pose flipped = box.truth;
-  flipped.rotation = (box.truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(180.f), Eigen::Vector3f::UnitZ())))
-                         .normalized();
+  flipped.rotation =
+      (box.truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(180.f), Eigen::Vector3f::UnitZ())))
+          .normalized();
   EstimateFit fit;
   const float right = fit.fit(data, box.model, box.box, box.truth);
   const float wrong = fit.fit(data, box.model, box.box, flipped);
@@ -75,9 +77,9 @@ TEST(EstimateFit, PointsOutsideTheClaimDoNotCountAndTooFewClaimedGiveZero) {
   EstimateFit fit;
   const float alone = fit.fit(data, box.model, box.box, box.truth);
   // A hand 5 cm in front of the box (beyond the claim margin) changes nothing.
-  const HypothesisData hand = test::make_hypothesis(test::transformed(
-      test::make_colored_box(Eigen::Vector3f(0.08f, 0.08f, 0.02f), 0.008f, test::kSixColours),
-      test::make_pose(Eigen::Vector3f(0.f, 0.f, 0.88f), Eigen::Vector3f::UnitZ(), 0.f)));
+  const HypothesisData hand = test::make_hypothesis(
+      test::transformed(test::make_colored_box(Eigen::Vector3f(0.08f, 0.08f, 0.02f), 0.008f, test::kSixColours),
+                        test::make_pose(Eigen::Vector3f(0.f, 0.f, 0.88f), Eigen::Vector3f::UnitZ(), 0.f)));
   data.points.insert(data.points.end(), hand.points.begin(), hand.points.end());
   data.features.insert(data.features.end(), hand.features.begin(), hand.features.end());
   EXPECT_FLOAT_EQ(fit.fit(data, box.model, box.box, box.truth), alone);

@@ -1,9 +1,3 @@
-#include "mfot/icp_refinement.hpp"
-#include "mfot/particle_filter.hpp"
-#include "mfot/smr_feature.hpp"
-#include "expect_invalid_argument.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +7,12 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/icp_refinement.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/smr_feature.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -30,8 +30,10 @@ struct SeenBox {
   Pose start() const {
     Pose p = truth;
     p.translation += Eigen::Vector3f(0.003f, -0.002f, 0.0015f);
-    p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(4.f), Eigen::Vector3f(1.f, 0.5f, 0.3f).normalized())) *
-                  p.rotation).normalized();
+    p.rotation =
+        (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(4.f), Eigen::Vector3f(1.f, 0.5f, 0.3f).normalized())) *
+         p.rotation)
+            .normalized();
     return p;
   }
 };
@@ -127,8 +129,10 @@ TEST(IcpRefinement, TheFinalIterationsOnADenseSampleAverageTheNoiseOut) {
     sparse_worst = std::max(sparse_worst, s_deg);
     dense_worst = std::max(dense_worst, d_deg);
   }
-  std::printf("3 mm noise, %d draws, 10 iterations on 20 points: %.2f deg mean, %.2f worst; the last 3 on every point: "
-              "%.2f deg mean, %.2f worst\n", kDraws, sparse_deg, sparse_worst, dense_deg, dense_worst);
+  std::printf(
+      "3 mm noise, %d draws, 10 iterations on 20 points: %.2f deg mean, %.2f worst; the last 3 on every point: "
+      "%.2f deg mean, %.2f worst\n",
+      kDraws, sparse_deg, sparse_worst, dense_deg, dense_worst);
   EXPECT_LT(dense_worst, 1.5f);
   EXPECT_LT(dense_deg, 0.7f * sparse_deg);
   EXPECT_LT(dense_worst, sparse_worst);
@@ -157,8 +161,8 @@ struct GrownBox {
         grown_face = face;
       }
     }
-    const Eigen::Matrix3f off = Eigen::AngleAxisf(test::radians(6.f), Eigen::Vector3f(0.3f, 1.f, -0.4f).normalized())
-                                    .toRotationMatrix();
+    const Eigen::Matrix3f off =
+        Eigen::AngleAxisf(test::radians(6.f), Eigen::Vector3f(0.3f, 1.f, -0.4f).normalized()).toRotationMatrix();
     ColoredCloud added;
     for (std::size_t k = 0; k < box.model.size(); ++k) {
       const Eigen::Vector3f& p = box.model.positions[k];
@@ -193,9 +197,11 @@ TEST(IcpRefinement, TheFirstViewAnchorsTheFrameAgainstAGrownFacesError) {
   const IcpResult anchored = refine_grown(10.f);
   const float alike_deg = test::degrees(test::rotation_error(alike.pose, g.box.truth));
   const float anchored_deg = test::degrees(test::rotation_error(anchored.pose, g.box.truth));
-  std::printf("a face grown 6 deg off: all points alike %.2f deg / %.2f mm off, the first view weighing 10: %.2f deg / "
-              "%.2f mm\n", alike_deg, 1e3f * test::translation_error(alike.pose, g.box.truth), anchored_deg,
-              1e3f * test::translation_error(anchored.pose, g.box.truth));
+  std::printf(
+      "a face grown 6 deg off: all points alike %.2f deg / %.2f mm off, the first view weighing 10: %.2f deg / "
+      "%.2f mm\n",
+      alike_deg, 1e3f * test::translation_error(alike.pose, g.box.truth), anchored_deg,
+      1e3f * test::translation_error(anchored.pose, g.box.truth));
   EXPECT_GT(alike_deg, 1.5f);  // the grown face pulls the fit
   EXPECT_LT(anchored_deg, 0.5f * alike_deg);
   EXPECT_LT(anchored_deg, 1.f);

@@ -1,5 +1,3 @@
-#include "mfot/individuation.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -7,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/individuation.hpp"
 
 namespace mfot {
 namespace {
@@ -53,11 +53,11 @@ TEST(EuclideanClustering, RejectsInvalidOptions) {
 
 TEST(EuclideanClustering, SeparatesBlobsAndDropsClustersBelowTheMinimum) {
   std::vector<Eigen::Vector3f> points;
-  add_blob(points, {0.f, 0.f, 0.8f}, 4);     // 64 points, indices 0..63
-  add_blob(points, {0.1f, 0.f, 0.8f}, 5);    // 125 points, 64..188
-  points.push_back({-0.1f, 0.f, 0.8f});      // isolated, 189
-  add_blob(points, {0.f, 0.1f, 0.8f}, 3);    // 27 points, 190..216
-  points.push_back({0.02f, 0.f, 0.8f});      // 5 mm from the first blob's far corner row: joins it, 217
+  add_blob(points, {0.f, 0.f, 0.8f}, 4);   // 64 points, indices 0..63
+  add_blob(points, {0.1f, 0.f, 0.8f}, 5);  // 125 points, 64..188
+  points.push_back({-0.1f, 0.f, 0.8f});    // isolated, 189
+  add_blob(points, {0.f, 0.1f, 0.8f}, 3);  // 27 points, 190..216
+  points.push_back({0.02f, 0.f, 0.8f});    // 5 mm from the first blob's far corner row: joins it, 217
 
   EuclideanClusterer clusterer(cluster_options(0.006f, 20));
   ClusterSet clusters;
@@ -237,8 +237,8 @@ TEST(Individuation, SupportMonitorDoesNotCountHiddenFrames) {
   EXPECT_TRUE(retired.empty());
   EXPECT_EQ(monitor.frames_without_support(4), 1);
   EXPECT_EQ(monitor.frames_without_support(7), 0);
-  for (int t = 0; t < 10 && retired.empty(); ++t) monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0},
-                                                                 std::vector<std::uint8_t>{1}, retired);
+  for (int t = 0; t < 10 && retired.empty(); ++t)
+    monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0}, std::vector<std::uint8_t>{1}, retired);
   EXPECT_TRUE(retired.empty());  // hidden for 10 frames: still there
   // A frame without support that is not hidden counts again; hidden ones keep the count.
   monitor.update(std::vector<std::int32_t>{7}, std::vector<std::size_t>{0}, std::vector<std::uint8_t>{0}, retired);

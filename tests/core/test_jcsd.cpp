@@ -1,16 +1,15 @@
 // JCSD grid (thesis 3.2.2-3.2.3, Algorithm 3, kernel 3.12) and its reference evaluation (3.18-3.19).
 // Expected values are worked out by hand from K_r(d) = max(r - d, 0) / r; arithmetic in comments.
-#include "mfot/jcsd_grid.hpp"
-#include "mfot/likelihood.hpp"
-
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numeric>
 #include <random>
 #include <stdexcept>
+
+#include "mfot/jcsd_grid.hpp"
+#include "mfot/likelihood.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -88,8 +87,9 @@ TEST(JcsdGrid, DensitySumsFollowTheKernel) {
 TEST(JcsdGrid, ColourMassFollowsTheFeatures) {
   // Every point adds h(c) times the same kernel sum to channel c: channel totals are in the ratio
   // of the summed features. Half the points pure red, half pure green -> equal red/green mass.
-  const ColoredCloud box = test::make_colored_box(Eigen::Vector3f(0.06f, 0.06f, 0.06f), 0.005f,
-                                                  {test::kRed, test::kRed, test::kRed, test::kRed, test::kRed, test::kRed});
+  const ColoredCloud box =
+      test::make_colored_box(Eigen::Vector3f(0.06f, 0.06f, 0.06f), 0.005f,
+                             {test::kRed, test::kRed, test::kRed, test::kRed, test::kRed, test::kRed});
   ColoredCloud cloud;
   for (std::size_t k = 0; k < box.size(); ++k) {
     cloud.push_back(box.positions[k], k % 2 == 0 ? Rgb8{255, 0, 0} : Rgb8{0, 255, 0});
@@ -114,7 +114,8 @@ TEST(JcsdGrid, BuildingIsLinearInTheNumberOfPoints) {
     for (std::size_t k = 0; k < n; ++k) {
       const std::uint64_t bits = rng();
       cloud.push_back(Eigen::Vector3f(static_cast<float>(bits & 0xffff), static_cast<float>((bits >> 16) & 0xffff),
-                                      static_cast<float>((bits >> 32) & 0xffff)) * (0.1f / 65535.f),
+                                      static_cast<float>((bits >> 32) & 0xffff)) *
+                          (0.1f / 65535.f),
                       Rgb8{static_cast<std::uint8_t>(bits >> 48), static_cast<std::uint8_t>(bits >> 56), 7});
     }
     JcsdBuildStats stats;

@@ -1,13 +1,5 @@
 // Hypothesis evaluation: weights of 3.21, the CPU JCSD likelihood (3.18-3.20), the [CC13]
 // point-to-point baseline (2.18-2.21) and hypothesis-data selection (3.3).
-#include "mfot/hypothesis.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/likelihood.hpp"
-#include "mfot/particle_filter.hpp"
-#include "mfot/point_to_point_likelihood.hpp"
-
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +9,13 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/hypothesis.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/likelihood.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/point_to_point_likelihood.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -56,8 +55,8 @@ std::vector<Pose> candidate_poses() {
 
 // Index of the best score, and how many candidates score at least as well as the true pose (0).
 std::size_t rank_of_true_pose(const std::vector<float>& scores) {
-  return static_cast<std::size_t>(std::count_if(scores.begin() + 1, scores.end(),
-                                                [&](float s) { return s >= scores[0]; }));
+  return static_cast<std::size_t>(
+      std::count_if(scores.begin() + 1, scores.end(), [&](float s) { return s >= scores[0]; }));
 }
 
 // The model, and the object observed at kTruePose. observation_phase 0 samples the surface at
@@ -165,11 +164,11 @@ TEST(JcsdLikelihood, MatchesTheReferenceAtTheGridFacesAndForNonFinitePoints) {
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const std::vector<Eigen::Vector3f> units{
-      {1.25f, 1.5f, 2.75f}, {3.75f, 2.5f, 4.5f}, {3.999f, 0.5f, 0.5f}, {0.f, 0.f, 0.f},   // inside
-      {4.f, 1.f, 1.f},      {1.f, 3.f, 1.f},     {1.f, 1.f, 5.5f},      {-0.25f, 1.f, 1.f},  // outside
-      {1e30f, 1.f, 1.f},    {inf, 1.f, 1.f},     {1.f, -inf, 1.f},      {1.f, 1.f, nan}};
+      {1.25f, 1.5f, 2.75f}, {3.75f, 2.5f, 4.5f}, {3.999f, 0.5f, 0.5f}, {0.f, 0.f, 0.f},     // inside
+      {4.f, 1.f, 1.f},      {1.f, 3.f, 1.f},     {1.f, 1.f, 5.5f},     {-0.25f, 1.f, 1.f},  // outside
+      {1e30f, 1.f, 1.f},    {inf, 1.f, 1.f},     {1.f, -inf, 1.f},     {1.f, 1.f, nan}};
   // Hues in every bin, including 345 degrees (bin 6 of 6, whose upper neighbour is bin 1), dark and light.
-  const std::vector<Rgb8> colours{{255, 0, 0},   {255, 0, 64},   {0, 255, 0},   {0, 0, 255},
+  const std::vector<Rgb8> colours{{255, 0, 0},   {255, 0, 64},    {0, 255, 0},    {0, 0, 255},
                                   {40, 40, 40},  {255, 255, 255}, {200, 150, 50}, {20, 60, 200},
                                   {0, 200, 200}, {180, 0, 255},   {90, 30, 10},   {128, 128, 128}};
   HypothesisData all;
@@ -258,9 +257,11 @@ TEST(Ranking, JcsdKeepsTheTruePoseFirstUnderFortyPercentOcclusion) {
     jcsd.evaluate(poses, data, jcsd_scores);
     p2p.evaluate(poses, data, p2p_scores);
     EXPECT_EQ(rank_of_true_pose(jcsd_scores), 0u) << "occluder " << direction.transpose();
-    std::printf("40%% occlusion along (%+.1f %+.1f %+.1f): candidates scoring >= true pose: JCSD %zu, point-to-point %zu of %zu\n",
-                direction.x(), direction.y(), direction.z(), rank_of_true_pose(jcsd_scores),
-                rank_of_true_pose(p2p_scores), poses.size() - 1);
+    std::printf(
+        "40%% occlusion along (%+.1f %+.1f %+.1f): candidates scoring >= true pose: JCSD %zu, point-to-point %zu of "
+        "%zu\n",
+        direction.x(), direction.y(), direction.z(), rank_of_true_pose(jcsd_scores), rank_of_true_pose(p2p_scores),
+        poses.size() - 1);
   }
 }
 
@@ -294,10 +295,10 @@ TEST(HypothesisSelection, KeepsPointsInTheGrownOrientedBox) {
   const std::size_t object_points = frame.size();
   const Eigen::Isometry3f to_camera = kTruePose.isometry();
   // Object-frame box: x in +-5 cm, y in +-7.5 cm, z in +-4 cm; margin 2 cm.
-  frame.push_back(to_camera * Eigen::Vector3f(0.065f, 0.f, 0.f), Rgb8{1, 2, 3});    // 1.5 cm out: kept
-  frame.push_back(to_camera * Eigen::Vector3f(0.f, 0.f, 0.065f), Rgb8{1, 2, 3});    // 2.5 cm out: dropped
-  frame.push_back(to_camera * Eigen::Vector3f(0.06f, 0.1f, 0.f), Rgb8{1, 2, 3});    // y 2.5 cm out: dropped
-  frame.push_back(Eigen::Vector3f(1.f, 1.f, 1.f), Rgb8{1, 2, 3});                   // far away: dropped
+  frame.push_back(to_camera * Eigen::Vector3f(0.065f, 0.f, 0.f), Rgb8{1, 2, 3});  // 1.5 cm out: kept
+  frame.push_back(to_camera * Eigen::Vector3f(0.f, 0.f, 0.065f), Rgb8{1, 2, 3});  // 2.5 cm out: dropped
+  frame.push_back(to_camera * Eigen::Vector3f(0.06f, 0.1f, 0.f), Rgb8{1, 2, 3});  // y 2.5 cm out: dropped
+  frame.push_back(Eigen::Vector3f(1.f, 1.f, 1.f), Rgb8{1, 2, 3});                 // far away: dropped
   const std::vector<SmrFeature> features = compute_smr(frame.colors);
   HypothesisData out;
   out.points.resize(3);  // stale content must be cleared
@@ -309,8 +310,8 @@ TEST(HypothesisSelection, KeepsPointsInTheGrownOrientedBox) {
   EXPECT_EQ(out.colors.front(), frame.colors.front());
   EXPECT_THROW(select_hypothesis_data(frame, features, scene.model, kTruePose, HypothesisOptions{-0.1f}, out),
                std::invalid_argument);
-  EXPECT_THROW(select_hypothesis_data(frame, std::span<const SmrFeature>(features).first(3), scene.model,
-                                      kTruePose, HypothesisOptions{}, out),
+  EXPECT_THROW(select_hypothesis_data(frame, std::span<const SmrFeature>(features).first(3), scene.model, kTruePose,
+                                      HypothesisOptions{}, out),
                std::invalid_argument);
 }
 

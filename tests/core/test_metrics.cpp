@@ -1,5 +1,3 @@
-#include "mfot/metrics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,8 @@
 #include <stdexcept>
 #include <tuple>
 #include <vector>
+
+#include "mfot/metrics.hpp"
 
 namespace mfot {
 namespace {
@@ -149,7 +149,8 @@ TEST(SegmentationAccuracy, KnownMislabelling) {
   // (5,0) = 1, (0,2) = 1, (8,0) = 1. Greedy: (5,1) and (8,2) tie at 4 and both are taken;
   // (8,1) loses (8 taken). Correct: (0,0) 2 + (5,1) 4 + (8,2) 4 = 10 of 16.
   SegmentationAccuracy acc;
-  acc.add_frame(std::vector<std::int32_t>{0, 0, 5, 5, 5, 5, 8, 8, 8, 0}, std::vector<std::int32_t>{0, 0, 0, 1, 1, 1, 1, 2, 2, 2});
+  acc.add_frame(std::vector<std::int32_t>{0, 0, 5, 5, 5, 5, 8, 8, 8, 0},
+                std::vector<std::int32_t>{0, 0, 0, 1, 1, 1, 1, 2, 2, 2});
   acc.add_frame(std::vector<std::int32_t>{8, 8, 5, 8, 8, 8}, std::vector<std::int32_t>{1, 1, 1, 2, 2, 0});
   EXPECT_DOUBLE_EQ(acc.accuracy(), 10.0 / 16.0);
   const auto map = acc.mapping();
@@ -166,7 +167,8 @@ TEST(SegmentationAccuracy, KnownMislabelling) {
 // over both frames and the frames it occurs in.
 TEST(SegmentationAccuracy, OverlapsCountEveryPairsPointsAndFrames) {
   SegmentationAccuracy acc;
-  acc.add_frame(std::vector<std::int32_t>{0, 0, 5, 5, 5, 5, 8, 8, 8, 0}, std::vector<std::int32_t>{0, 0, 0, 1, 1, 1, 1, 2, 2, 2});
+  acc.add_frame(std::vector<std::int32_t>{0, 0, 5, 5, 5, 5, 8, 8, 8, 0},
+                std::vector<std::int32_t>{0, 0, 0, 1, 1, 1, 1, 2, 2, 2});
   acc.add_frame(std::vector<std::int32_t>{8, 8, 5, 8, 8, 8}, std::vector<std::int32_t>{1, 1, 1, 2, 2, 0});
   const auto overlaps = acc.overlaps();
   std::vector<std::tuple<std::int32_t, std::int32_t, std::uint64_t, std::size_t>> got;
@@ -200,7 +202,8 @@ TEST(SegmentationAccuracy, OneToOneLeavesExtraPredictionsWrong) {
 TEST(RelativePoseError, ZeroForIdenticalTrajectoriesAndAnyObjectFrame) {
   std::vector<Pose> truth;
   for (int t = 0; t < 10; ++t) {
-    truth.push_back(pose_at({0.01f * static_cast<float>(t), 0.1f, 0.8f}, 0.1f * static_cast<float>(t), {1.f, 1.f, 0.f}));
+    truth.push_back(
+        pose_at({0.01f * static_cast<float>(t), 0.1f, 0.8f}, 0.1f * static_cast<float>(t), {1.f, 1.f, 0.f}));
   }
   // The tracker's object frame differs from the ground truth's by a constant offset O.
   const Eigen::Isometry3f offset = pose_at({0.02f, -0.03f, 0.01f}, 0.6f, {0.f, 1.f, 1.f}).isometry();
@@ -227,7 +230,9 @@ TEST(RelativePoseError, KnownOffset) {
     Pose p = g;
     if (t > 0) {
       p.translation += Eigen::Vector3f(0.003f, 0.004f, 0.f);
-      p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(10.f * std::numbers::pi_v<float> / 180.f, Eigen::Vector3f::UnitZ())) * p.rotation;
+      p.rotation =
+          Eigen::Quaternionf(Eigen::AngleAxisf(10.f * std::numbers::pi_v<float> / 180.f, Eigen::Vector3f::UnitZ())) *
+          p.rotation;
     }
     predicted.push_back(p);
   }
@@ -247,8 +252,9 @@ TEST(RelativePoseError, RotationErrorAboutTheObjectDoesNotCountAsTranslation) {
   // translation error is 0; the camera origin, 1 m away, is carried 1 m x 1 deg = 17.45 mm.
   std::vector<Pose> truth(2, pose_at({0.f, 0.f, 1.f}));
   std::vector<Pose> predicted = truth;
-  predicted[1].rotation = Eigen::Quaternionf(Eigen::AngleAxisf(std::numbers::pi_v<float> / 180.f, Eigen::Vector3f::UnitY())) *
-                          predicted[1].rotation;
+  predicted[1].rotation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(std::numbers::pi_v<float> / 180.f, Eigen::Vector3f::UnitY())) *
+      predicted[1].rotation;
   const auto errors = relative_pose_errors(predicted, truth);
   EXPECT_NEAR(errors[1].translation_mm, 0.0, 1e-3);
   EXPECT_NEAR(errors[1].rotation_deg, 1.0, 1e-3);
@@ -324,7 +330,8 @@ TEST(RelativePoseErrors, AnObjectsSymmetryAxisLeavesTheTurnAboutItOut) {
   // Truth: still. Prediction 1: turned 30 deg about the can's own axis; 2: tilted 10 deg.
   const auto turned = [&](const Eigen::Vector3f& camera_axis, float degrees) {
     Pose p = start;
-    p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(degrees * std::numbers::pi_v<float> / 180.f, camera_axis)) * start.rotation;
+    p.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(degrees * std::numbers::pi_v<float> / 180.f, camera_axis)) *
+                 start.rotation;
     return p;
   };
   const Eigen::Vector3f can_axis_in_camera = start.rotation * axis;

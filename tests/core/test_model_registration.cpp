@@ -1,9 +1,9 @@
-#include "mfot/model_registration.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+
+#include "mfot/model_registration.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -52,9 +52,9 @@ TEST(ModelRegistration, HoldsNoGridBetweenRegistrationsOverManyOfThem) {
 TEST(ModelRegistration, AnotherObjectHasNoRegistration) {
   const ObjectModel model = test::make_model(test::make_test_object(0.f, 0.008f, true));
   // A box of the same shape in one colour: nothing of the model's texture.
-  const ColoredCloud grey = test::make_colored_box(Eigen::Vector3f(0.10f, 0.15f, 0.08f), 0.008f,
-                                                   {test::kWhite, test::kWhite, test::kWhite, test::kWhite,
-                                                    test::kWhite, test::kWhite});
+  const ColoredCloud grey =
+      test::make_colored_box(Eigen::Vector3f(0.10f, 0.15f, 0.08f), 0.008f,
+                             {test::kWhite, test::kWhite, test::kWhite, test::kWhite, test::kWhite, test::kWhite});
   const Pose pose = test::make_pose(Eigen::Vector3f(0.f, 0.f, 1.f), Eigen::Vector3f::UnitZ(), 0.4f);
   ModelRegistration registration;
   EXPECT_FALSE(registration.register_model(model, test::make_hypothesis(test::transformed(grey, pose))).has_value());

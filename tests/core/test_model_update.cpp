@@ -1,5 +1,3 @@
-#include "mfot/model_updater.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -8,6 +6,8 @@
 #include <stdexcept>
 #include <tuple>
 #include <vector>
+
+#include "mfot/model_updater.hpp"
 
 namespace mfot {
 namespace {
@@ -44,7 +44,8 @@ Segment make_segment(std::size_t n, const Pose& pose, std::uint64_t seed) {
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f p = Eigen::Vector3f(uniform01(rng), uniform01(rng), uniform01(rng)) * 0.1f;
     s.object_frame.push_back(p);
-    s.camera_frame.push_back(pose.isometry() * p, Rgb8{static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>(i / 256), 200});
+    s.camera_frame.push_back(pose.isometry() * p,
+                             Rgb8{static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>(i / 256), 200});
   }
   return s;
 }
@@ -90,7 +91,8 @@ TEST(ModelUpdate, KeepsWhatIsNotSeenAndForgetsOnlySeenPoints) {
   Segment segment = make_segment(3000, pose, 2);
   ColoredCloud visible;
   for (std::size_t i = 0; i < segment.camera_frame.size(); ++i) {
-    if (segment.object_frame[i].x() < 0.04f) visible.push_back(segment.camera_frame.positions[i], segment.camera_frame.colors[i]);
+    if (segment.object_frame[i].x() < 0.04f)
+      visible.push_back(segment.camera_frame.positions[i], segment.camera_frame.colors[i]);
   }
   ModelUpdater updater(options(0.2f, 3, 0, 0.01f));
   const ObjectModel updated = updater.update(old_model, visible, pose);
@@ -120,7 +122,8 @@ TEST(ModelUpdate, AlphaZeroKeepsTheModel) {
   ASSERT_EQ(updated.cloud.size(), old_model.cloud.size());
   EXPECT_EQ(updated.cloud.positions, old_model.cloud.positions);
   EXPECT_EQ(updated.cloud.colors, old_model.cloud.colors);
-  for (std::size_t i = 0; i < updated.features.size(); ++i) EXPECT_TRUE(same_feature(updated.features[i], old_model.features[i]));
+  for (std::size_t i = 0; i < updated.features.size(); ++i)
+    EXPECT_TRUE(same_feature(updated.features[i], old_model.features[i]));
 }
 
 TEST(ModelUpdate, AlphaOneReplacesTheModelBySegmentedPointsInTheObjectFrame) {

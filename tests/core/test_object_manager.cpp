@@ -1,11 +1,11 @@
-#include "mfot/object_manager.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <map>
 #include <memory>
 #include <set>
+
+#include "mfot/object_manager.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -16,8 +16,9 @@ void add_block(ColoredCloud& cloud, std::vector<std::int32_t>& cluster, std::int
   for (int x = 0; x < cells.x(); ++x) {
     for (int y = 0; y < cells.y(); ++y) {
       for (int z = 0; z < cells.z(); ++z) {
-        cloud.push_back(min + 0.005f * Eigen::Vector3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)),
-                        {static_cast<std::uint8_t>(40 * x % 256), static_cast<std::uint8_t>(200 - 10 * y), 90});
+        cloud.push_back(
+            min + 0.005f * Eigen::Vector3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)),
+            {static_cast<std::uint8_t>(40 * x % 256), static_cast<std::uint8_t>(200 - 10 * y), 90});
         cluster.push_back(cluster_id);
       }
     }
@@ -568,11 +569,12 @@ TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo
   // comes into view: connected to the hand only, it is the hand's, never the box's.
   ColoredCloud cloud;
   std::vector<std::int32_t> cluster;
-  add_block(cloud, cluster, 0, {-0.1f, 0.f, 1.f}, {10, 10, 6});   // box
-  add_block(cloud, cluster, 1, {0.0f, 0.f, 1.f}, {6, 10, 6});     // hand, touching the box
+  add_block(cloud, cluster, 0, {-0.1f, 0.f, 1.f}, {10, 10, 6});  // box
+  add_block(cloud, cluster, 1, {0.0f, 0.f, 1.f}, {6, 10, 6});    // hand, touching the box
   ObjectManagerOptions options;
   options.growth_frames = 10;
-  options.propagation_min_seed_share = 0.1f;  // left alone by the guard: box and hand seed 57 % of the cluster with the arm
+  options.propagation_min_seed_share =
+      0.1f;  // left alone by the guard: box and hand seed 57 % of the cluster with the arm
   ObjectManager manager(options);
   manager.process(cloud, cluster, {});
   ASSERT_EQ(manager.objects().size(), 2u);
@@ -580,7 +582,7 @@ TEST(ObjectManager, UnexplainedPointsOfAContactClusterGoToTheObjectTheyConnectTo
   const std::size_t hand_model = manager.objects().at(2).model.cloud.size();
   const std::size_t before = cloud.size();
   std::fill(cluster.begin(), cluster.end(), 0);
-  add_block(cloud, cluster, 0, {0.03f, 0.f, 1.f}, {30, 6, 4});   // the arm, beyond tau of the hand
+  add_block(cloud, cluster, 0, {0.03f, 0.f, 1.f}, {30, 6, 4});  // the arm, beyond tau of the hand
   const auto& frame = manager.process(cloud, cluster, unchanged(manager));
   EXPECT_TRUE(frame.created.empty());
   for (std::size_t i = before; i < cloud.size(); ++i) ASSERT_EQ(frame.labels[i], 2) << "arm point " << i;
@@ -624,7 +626,7 @@ TEST(ObjectManager, AClusterSeededTooThinlyKeepsItsPointsForAnObjectOfItsOwn) {
   std::vector<std::int32_t> scene_cluster = hand_cluster;
   const std::size_t first_box = scene.size();
   add_block(scene, scene_cluster, 1, {-0.043f, 0.f, 1.f}, {10, 10, 6});  // beyond tau, within the propagation radius
-  const std::size_t seed = (9 * 10 + 0) * 6 + 0;                          // the hand's point at x = -0.055, y = z = 0
+  const std::size_t seed = (9 * 10 + 0) * 6 + 0;                         // the hand's point at x = -0.055, y = z = 0
   scene_cluster[seed] = 1;
   for (const float share : {0.f, 0.1f}) {
     ObjectManagerOptions options;
@@ -706,7 +708,8 @@ TEST(ObjectManagerJoin, PartsBornTogetherThatMoveAsOneBecomeOneObject) {
   ObjectManager manager(join_options(), std::make_unique<SplitAtXZero>());
   manager.process(scene.cloud, scene.cluster, {});
   ASSERT_EQ(manager.objects().size(), 2u);
-  const std::size_t model_points = manager.objects().at(1).model.cloud.size() + manager.objects().at(2).model.cloud.size();
+  const std::size_t model_points =
+      manager.objects().at(1).model.cloud.size() + manager.objects().at(2).model.cloud.size();
   const std::vector<std::int32_t> both{1, 2};
   Eigen::Vector3f offset = Eigen::Vector3f::Zero();
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;
@@ -748,7 +751,8 @@ TEST(ObjectManagerJoin, StillOrSeparatelyMovingOrUnrelatedObjectsStayApart) {
     ObjectManager manager(join_options(), std::make_unique<SplitAtXZero>());
     manager.process(scene.cloud, scene.cluster, {});
     const std::vector<std::int32_t> one{1};
-    for (int frame = 0; frame < 20; ++frame) manager.process(scene.cloud, scene.cluster, moved(manager, {0.005f, 0.f, 0.f}, one));
+    for (int frame = 0; frame < 20; ++frame)
+      manager.process(scene.cloud, scene.cluster, moved(manager, {0.005f, 0.f, 0.f}, one));
     EXPECT_EQ(manager.objects().size(), 2u);
   }
   {  // moving together, but born from different clusters (a hand carrying an object)
@@ -756,7 +760,8 @@ TEST(ObjectManagerJoin, StillOrSeparatelyMovingOrUnrelatedObjectsStayApart) {
     ObjectManager manager(join_options());
     manager.process(scene.cloud, scene.cluster, {});
     const std::vector<std::int32_t> both{1, 2};
-    for (int frame = 0; frame < 20; ++frame) manager.process(scene.cloud, scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
+    for (int frame = 0; frame < 20; ++frame)
+      manager.process(scene.cloud, scene.cluster, moved(manager, {0.01f, 0.f, 0.f}, both));
     EXPECT_EQ(manager.objects().size(), 2u);
   }
 }
@@ -803,7 +808,8 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
     }
     for (int frame = 0; frame < 6; ++frame) {
       offset.x() += 0.01f;
-      std::map<std::int32_t, ObjectEstimate> estimates = moved(manager, {0.01f, 0.f, 0.f}, std::vector<std::int32_t>{2});
+      std::map<std::int32_t, ObjectEstimate> estimates =
+          moved(manager, {0.01f, 0.f, 0.f}, std::vector<std::int32_t>{2});
       estimates.at(1).held = true;
       const auto& result = manager.process(shifted(visible, offset), visible_cluster, estimates);
       if (!on) {
@@ -819,7 +825,8 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
       const ManagedObject& hidden = manager.objects().at(1);
       EXPECT_TRUE(hidden.held);
       EXPECT_EQ(hidden.carried_by, on ? 2 : 0);
-      const Eigen::Vector3f expected = last_seen.translation + (on ? 0.01f * static_cast<float>(frame + 1) : 0.f) * Eigen::Vector3f::UnitX();
+      const Eigen::Vector3f expected =
+          last_seen.translation + (on ? 0.01f * static_cast<float>(frame + 1) : 0.f) * Eigen::Vector3f::UnitX();
       EXPECT_LT((hidden.pose.translation - expected).norm(), 1e-5f) << "frame " << frame;
     }
   }
@@ -992,7 +999,8 @@ TEST(ObjectManagerSplit, AnObjectWhosePartsLieInTwoClustersIsSplit) {
     close.join_split.split_min_gap = 0.03f;
     ObjectManager manager(close);
     manager.process(cloud, cluster, {});
-    for (int frame = 1; frame <= 6; ++frame) EXPECT_TRUE(manager.process(cloud, apart, unchanged(manager)).split.empty());
+    for (int frame = 1; frame <= 6; ++frame)
+      EXPECT_TRUE(manager.process(cloud, apart, unchanged(manager)).split.empty());
   }
   ObjectManager manager(options);
   manager.process(cloud, cluster, {});
@@ -1077,7 +1085,8 @@ class SplitWhenTold final : public ObjectDiscovery {
     if (!splitting) return 1;
     std::map<std::ptrdiff_t, int> part_of_side;
     for (std::size_t i = 0; i < positions.size(); ++i) {
-      const std::ptrdiff_t side = std::count_if(at_x.begin(), at_x.end(), [&](float x) { return positions[i].x() >= x; });
+      const std::ptrdiff_t side =
+          std::count_if(at_x.begin(), at_x.end(), [&](float x) { return positions[i].x() >= x; });
       part[i] = part_of_side.try_emplace(side, static_cast<int>(part_of_side.size())).first->second;
     }
     return static_cast<int>(part_of_side.size());
@@ -1112,7 +1121,8 @@ TEST(ObjectManagerConfirm, AYoungObjectTheDiscoverySplitsInEnoughOfItsFirstFrame
   ASSERT_EQ(manager.objects().size(), 2u);
   EXPECT_EQ(manager.objects().at(1).model.cloud.size(), 6u * 12u * 6u);  // rebuilt from its part
   EXPECT_EQ(manager.objects().at(2).model.cloud.size(), 6u * 12u * 6u);
-  for (std::size_t i = 0; i < scene.cloud.size(); ++i) EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i)
+    EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
   // The objects born from one cluster are looked at together, once a frame, while one of them is in its first
   // confirm_frames frames: object 1 up to frame 5, object 2 (born at frame 3, its sibling) on frames 4 to 8.
   told->splitting = false;
@@ -1138,8 +1148,9 @@ TEST(ObjectManagerConfirm, AnObjectThatMovedFromWhereItWasBornIsNotLookedAtAgain
   const ColoredCloud moved_scene = shifted(scene.cloud, offset);
   const std::vector<std::int32_t> ids{1};
   for (int frame = 1; frame <= 4; ++frame) {
-    EXPECT_TRUE(manager.process(moved_scene, scene.cluster, moved(manager, frame == 1 ? offset : Eigen::Vector3f::Zero(), ids))
-                    .split.empty());
+    EXPECT_TRUE(
+        manager.process(moved_scene, scene.cluster, moved(manager, frame == 1 ? offset : Eigen::Vector3f::Zero(), ids))
+            .split.empty());
   }
   EXPECT_EQ(told->calls, calls);
   EXPECT_EQ(manager.objects().size(), 1u);
@@ -1162,7 +1173,8 @@ TEST(ObjectManagerConfirm, APartThatIsOneConvexPieceWithASiblingJoinsIt) {
   EXPECT_TRUE(result.split.empty());
   EXPECT_TRUE(result.created.empty());
   ASSERT_EQ(result.regrouped, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));
-  for (std::size_t i = 0; i < scene.cloud.size(); ++i) EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
+  for (std::size_t i = 0; i < scene.cloud.size(); ++i)
+    EXPECT_EQ(result.labels[i], scene.cloud.positions[i].x() < 0.f ? 1 : 2);
   EXPECT_EQ(manager.objects().at(1).model.cloud.size(), 6u * 12u * 6u);
   EXPECT_EQ(manager.objects().at(2).model.cloud.size(), born_second + 4u * 12u * 6u);
 }
@@ -1267,13 +1279,12 @@ TEST(JoinSplitOptions, RejectsOutOfRangeFields) {
   EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
-
 // A box whose first view shows its +x, +y and +z faces (5 mm spacing), then, sampled elsewhere (as a sensor samples
 // a surface between the model's points), those faces and its -y face, grown with an estimate 3 degrees off: the grown
 // face is misplaced by that in the object frame; one more frame with the right estimate shows both parts.
 struct BoxGrownOff {
   ColoredCloud first_view;
-  ColoredCloud whole;  // the first view's faces, then the -y face, sampled between the first view's points
+  ColoredCloud whole;          // the first view's faces, then the -y face, sampled between the first view's points
   std::size_t grown_from = 0;  // whole's first -y face point
   std::vector<std::int32_t> first_cluster, whole_cluster;
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();

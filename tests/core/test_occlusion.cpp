@@ -1,5 +1,3 @@
-#include "mfot/occlusion.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +6,8 @@
 #include <span>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/occlusion.hpp"
 
 namespace mfot {
 namespace {

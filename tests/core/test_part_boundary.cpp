@@ -1,11 +1,11 @@
-#include "mfot/part_boundary.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/part_boundary.hpp"
 
 namespace mfot {
 namespace {

@@ -1,19 +1,19 @@
-#include "mfot/part_refit.hpp"
-#include "expect_invalid_argument.hpp"
-#include "synthetic_object.hpp"
-
-#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <numbers>
 #include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/part_refit.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -52,14 +52,14 @@ Eigen::Vector3d rigid_turn(std::span<const Eigen::Vector3f> from, std::span<cons
 // misplaced by that in the object frame. The scene shows the box at a pose where the camera sees +x, -y
 // and +z (the first view in part and the whole grown face), sampled between the model's points.
 struct GrownBox {
-  std::vector<Eigen::Vector3f> model;          // first view, then the grown face
-  std::vector<Eigen::Vector3f> grown_truth;    // the grown face where it belongs
+  std::vector<Eigen::Vector3f> model;        // first view, then the grown face
+  std::vector<Eigen::Vector3f> grown_truth;  // the grown face where it belongs
   std::vector<std::uint32_t> part_ends;
-  Pose growth_error = test::make_pose(Eigen::Vector3f(0.001f, -0.003f, 0.f), Eigen::Vector3f(0.2f, 0.3f, 1.f),
-                                      test::radians(4.f));
-  Pose truth{Eigen::Vector3f(0.03f, -0.02f, 0.9f),
-             Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f(1.f, -1.f, 1.f).normalized(),
-                                                -Eigen::Vector3f::UnitZ())};
+  Pose growth_error =
+      test::make_pose(Eigen::Vector3f(0.001f, -0.003f, 0.f), Eigen::Vector3f(0.2f, 0.3f, 1.f), test::radians(4.f));
+  Pose truth{
+      Eigen::Vector3f(0.03f, -0.02f, 0.9f),
+      Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f(1.f, -1.f, 1.f).normalized(), -Eigen::Vector3f::UnitZ())};
   std::vector<Eigen::Vector3f> scene;
 
   GrownBox() {
@@ -119,16 +119,18 @@ TEST(PartRefit, AGrownPartMisplacedByItsGrowthPoseIsMovedBackOntoTheFirstView) {
   // The tracker's estimate lies between the two parts' poses: 2 degrees and 1.5 mm off.
   Pose estimate = box.truth;
   estimate.translation += Eigen::Vector3f(0.001f, 0.001f, -0.0005f);
-  estimate.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(2.f), Eigen::Vector3f::UnitY())) *
-                       estimate.rotation).normalized();
+  estimate.rotation =
+      (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(2.f), Eigen::Vector3f::UnitY())) * estimate.rotation)
+          .normalized();
   PartRefit refit(enabled());
   EXPECT_EQ(refit.refit(box.scene, box.model, box.part_ends, estimate), 1u);
   const float after = box.grown_error();
   const float turn_after = box.grown_turn();
   const float offset_after = box.grown_offset();
-  std::printf("grown face turned %.2f deg, %.2f mm off its plane, its points up to %.1f mm off; after: %.2f deg, "
-              "%.2f mm, %.1f mm\n", turn_before, 1e3f * offset_before, 1e3f * before, turn_after, 1e3f * offset_after,
-              1e3f * after);
+  std::printf(
+      "grown face turned %.2f deg, %.2f mm off its plane, its points up to %.1f mm off; after: %.2f deg, "
+      "%.2f mm, %.1f mm\n",
+      turn_before, 1e3f * offset_before, 1e3f * before, turn_after, 1e3f * offset_after, 1e3f * after);
   EXPECT_NEAR(turn_before, 4.f, 0.01f);
   EXPECT_GT(offset_before, 0.0025f);
   // Its turn and its distance from its plane are undone. Along itself a flat face sampled on a grid holds its
@@ -145,10 +147,8 @@ TEST(PartRefit, AGrownPartMisplacedByItsGrowthPoseIsMovedBackOntoTheFirstView) {
 TEST(PartRefit, APartSeenOnlyInPartStaysWhereItGrew) {
   GrownBox box;
   // Only the 35 % of the -y face nearest +x shows (the rest hidden): it would slide along itself.
-  const std::vector<Eigen::Vector3f> scene =
-      box.scene_showing([](const Eigen::Vector3f& local) {
-        return !GrownBox::on_grown_face(local) || local.x() >= 0.015f;
-      });
+  const std::vector<Eigen::Vector3f> scene = box.scene_showing(
+      [](const Eigen::Vector3f& local) { return !GrownBox::on_grown_face(local) || local.x() >= 0.015f; });
   const std::vector<Eigen::Vector3f> model = box.model;
   PartRefitOptions options = enabled();
   options.min_points = 100;  // the 112 points shown are enough, and their spread: their coverage is what is short
@@ -209,12 +209,12 @@ TEST(PartRefit, APartIsNotTurnedAboutAnAxisTheFirstViewDoesNotHold) {
   PartRefit held_only(options);
   const std::size_t moved = held_only.refit(scene, box.model, box.part_ends, lagging);
   const Eigen::Vector3d held_change = rigid_turn(before, grown(box));
-  std::printf("grown face turned about x, y, z by %.2f, %.2f, %.2f deg with the whole rotation; by %.2f, %.2f, %.2f deg "
-              "with the held rotations (%zu moved)\n",
-              test::degrees(static_cast<float>(whole_change.x())), test::degrees(static_cast<float>(whole_change.y())),
-              test::degrees(static_cast<float>(whole_change.z())), test::degrees(static_cast<float>(held_change.x())),
-              test::degrees(static_cast<float>(held_change.y())), test::degrees(static_cast<float>(held_change.z())),
-              moved);
+  std::printf(
+      "grown face turned about x, y, z by %.2f, %.2f, %.2f deg with the whole rotation; by %.2f, %.2f, %.2f deg "
+      "with the held rotations (%zu moved)\n",
+      test::degrees(static_cast<float>(whole_change.x())), test::degrees(static_cast<float>(whole_change.y())),
+      test::degrees(static_cast<float>(whole_change.z())), test::degrees(static_cast<float>(held_change.x())),
+      test::degrees(static_cast<float>(held_change.y())), test::degrees(static_cast<float>(held_change.z())), moved);
   EXPECT_GT(std::abs(test::degrees(static_cast<float>(whole_change.z()))), 1.f);
   EXPECT_LT(std::abs(test::degrees(static_cast<float>(held_change.z()))), 0.1f);
   // The first view's normals are kept between calls: a re-fit that computed them before (with another object's first

@@ -1,11 +1,5 @@
 // SIR particle filter over SE(3) (thesis 2.2.2, Algorithm 1, 2.12-2.15, 3.21) tracking a synthetic
 // coloured object with the CPU JCSD likelihood.
-#include "mfot/hypothesis.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/particle_filter.hpp"
-
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,6 +9,11 @@
 #include <numbers>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/hypothesis.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/particle_filter.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -39,8 +38,8 @@ TEST(PoseIncrement, RollPitchYawRoundTrip) {
   const Eigen::Vector3f rpy(0.3f, -0.7f, 2.9f);
   EXPECT_LT((rpy_from_rotation(rotation_from_rpy(rpy)) - rpy).norm(), 1e-5f);
   // Rz(yaw) Ry(pitch) Rx(roll): roll alone rotates y into z.
-  const Eigen::Vector3f y_rolled = rotation_from_rpy(Eigen::Vector3f(std::numbers::pi_v<float> / 2, 0.f, 0.f)) *
-                                   Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f y_rolled =
+      rotation_from_rpy(Eigen::Vector3f(std::numbers::pi_v<float> / 2, 0.f, 0.f)) * Eigen::Vector3f::UnitY();
   EXPECT_LT((y_rolled - Eigen::Vector3f::UnitZ()).norm(), 1e-6f);
 }
 
@@ -134,7 +133,7 @@ TrackResult track(const MovingObject& scene, const ParticleFilterOptions& option
     select_hypothesis_data(frame_points, features, scene.model, filter.estimate(), HypothesisOptions{0.06f}, data);
     const PoseVector last_step = pose_difference(scene.pose_at(std::max(0, frame - 2)), scene.pose_at(frame - 1));
     const StepMotion step_motion = motion != nullptr ? *motion : options.step_motion();
-    const Pose estimate = companion ? filter.step(data, likelihood, step_motion, &last_step)
+    const Pose estimate = companion           ? filter.step(data, likelihood, step_motion, &last_step)
                           : motion != nullptr ? filter.step(data, likelihood, *motion)
                                               : filter.step(data, likelihood);
     r.estimates.push_back(estimate);
@@ -160,12 +159,13 @@ TEST(ParticleFilter, TracksAFastMovingObject) {
   const MovingObject scene;
   const ParticleFilterOptions options = tracking_options(7);
   const TrackResult r = track(scene, options);
-  std::printf("tracking, %d particles, JCSD CPU, noise-free points:\n"
-              "  %d frames at 2 cm + 10 deg/frame: translation mean %.2f mm max %.2f mm, rotation mean %.2f deg max %.2f deg\n"
-              "  %d ramp frames from rest: max %.2f mm, %.2f deg\n",
-              options.num_particles, kFullSpeedFrames, 1e3f * r.mean_translation_error,
-              1e3f * r.max_translation_error, degrees(r.mean_rotation_error), degrees(r.max_rotation_error),
-              kRampFrames, 1e3f * r.ramp_max_translation_error, degrees(r.ramp_max_rotation_error));
+  std::printf(
+      "tracking, %d particles, JCSD CPU, noise-free points:\n"
+      "  %d frames at 2 cm + 10 deg/frame: translation mean %.2f mm max %.2f mm, rotation mean %.2f deg max %.2f deg\n"
+      "  %d ramp frames from rest: max %.2f mm, %.2f deg\n",
+      options.num_particles, kFullSpeedFrames, 1e3f * r.mean_translation_error, 1e3f * r.max_translation_error,
+      degrees(r.mean_rotation_error), degrees(r.max_rotation_error), kRampFrames, 1e3f * r.ramp_max_translation_error,
+      degrees(r.ramp_max_rotation_error));
   EXPECT_LT(r.max_translation_error, 0.003f);
   EXPECT_LT(degrees(r.max_rotation_error), 2.f);
   // While it picks up the velocity the filter lags a little but must not lose the object.
@@ -180,9 +180,10 @@ TEST(ParticleFilter, RefinementFollowsAThinParticleSetCloser) {
   const TrackResult mean_only = track(scene, options);
   options.refine_rounds = 3;
   const TrackResult refined = track(scene, options);
-  std::printf("30 particles: rotation mean %.2f -> %.2f deg, translation mean %.2f -> %.2f mm with 3 refinement rounds\n",
-              degrees(mean_only.mean_rotation_error), degrees(refined.mean_rotation_error),
-              1e3f * mean_only.mean_translation_error, 1e3f * refined.mean_translation_error);
+  std::printf(
+      "30 particles: rotation mean %.2f -> %.2f deg, translation mean %.2f -> %.2f mm with 3 refinement rounds\n",
+      degrees(mean_only.mean_rotation_error), degrees(refined.mean_rotation_error),
+      1e3f * mean_only.mean_translation_error, 1e3f * refined.mean_translation_error);
   EXPECT_LT(refined.mean_rotation_error, 0.8f * mean_only.mean_rotation_error);
   EXPECT_LT(refined.mean_translation_error, mean_only.mean_translation_error);
   EXPECT_LT(degrees(refined.max_rotation_error), 15.f);  // never lost (the mean-only filter is, at 54 deg)
@@ -263,7 +264,8 @@ TEST(ParticleFilter, SameSeedIsBitIdenticalAndOtherSeedsDiffer) {
     filter.reset(scene.pose_at(0));
     std::vector<float> trace;
     for (int frame = 1; frame <= 10; ++frame) {
-      const Pose e = filter.step(test::make_hypothesis(test::transformed(scene.object, scene.pose_at(frame))), likelihood);
+      const Pose e =
+          filter.step(test::make_hypothesis(test::transformed(scene.object, scene.pose_at(frame))), likelihood);
       trace.insert(trace.end(), {e.translation.x(), e.translation.y(), e.translation.z(), e.rotation.w(),
                                  e.rotation.x(), e.rotation.y(), e.rotation.z()});
     }
@@ -351,7 +353,8 @@ TEST(ParticleFilter, AReplacedEstimateGivesTheNextPrediction) {
   EXPECT_EQ(replaced.translation, scene.pose_at(4).translation);
   EXPECT_EQ(filter.estimate().rotation.coeffs(), scene.pose_at(4).rotation.coeffs());
   const PoseVector expected = pose_difference(before, scene.pose_at(4));
-  EXPECT_TRUE(filter.velocity().isApprox(expected, 1e-5f)) << filter.velocity().transpose() << " vs " << expected.transpose();
+  EXPECT_TRUE(filter.velocity().isApprox(expected, 1e-5f))
+      << filter.velocity().transpose() << " vs " << expected.transpose();
   filter.hold();
   EXPECT_THROW(filter.replace_estimate(scene.pose_at(4)), std::logic_error);  // a held frame has no step to refine
 }
@@ -382,8 +385,10 @@ TEST(ParticleFilter, AReplacedEstimateMovesTheParticlesItsShareOfTheWay) {
     const Eigen::Isometry3f motion = followed.isometry() * stepped.isometry().inverse();
     for (std::size_t i = 0; i < before.size(); ++i) {
       const Pose expected = Pose::from_isometry(motion * before[i].isometry());
-      EXPECT_LT(test::translation_error(filter.particles()[i], expected), 1e-5f) << "share " << share << ", particle " << i;
-      EXPECT_LT(test::rotation_error(filter.particles()[i], expected), 1e-4f) << "share " << share << ", particle " << i;
+      EXPECT_LT(test::translation_error(filter.particles()[i], expected), 1e-5f)
+          << "share " << share << ", particle " << i;
+      EXPECT_LT(test::rotation_error(filter.particles()[i], expected), 1e-4f)
+          << "share " << share << ", particle " << i;
       EXPECT_EQ(filter.weights()[i], weights[i]);
     }
     if (share == 0.f) {
@@ -402,7 +407,8 @@ TEST(ParticleFilter, AReplacedEstimateMovesTheParticlesItsShareOfTheWay) {
 TEST(ParticleFilter, MovingToAPoseCarriesTheWholeParticleSetRigidly) {
   ParticleFilter filter(tracking_options(5));
   EXPECT_THROW(filter.move_to(Pose{}), std::logic_error);  // before reset
-  const Pose start = test::make_pose(Eigen::Vector3f(0.1f, 0.f, 1.f), Eigen::Vector3f(0.f, 1.f, 1.f).normalized(), 0.3f);
+  const Pose start =
+      test::make_pose(Eigen::Vector3f(0.1f, 0.f, 1.f), Eigen::Vector3f(0.f, 1.f, 1.f).normalized(), 0.3f);
   filter.reset(start);
   const std::vector<Pose> before(filter.particles().begin(), filter.particles().end());
   const std::vector<float> weights(filter.weights().begin(), filter.weights().end());

@@ -1,10 +1,3 @@
-#include "mfot/preprocessing.hpp"
-
-#include "mfot/individuation.hpp"
-
-#include "expect_invalid_argument.hpp"
-#include "preprocess_test_scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +5,11 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/individuation.hpp"
+#include "mfot/preprocessing.hpp"
+#include "preprocess_test_scene.hpp"
 
 namespace mfot {
 namespace {
@@ -38,7 +36,8 @@ Frame constant_depth_frame(int width, int height, std::uint16_t left_mm, std::ui
   frame.depth_mm.resize(static_cast<std::size_t>(width * height));
   frame.color.assign(frame.depth_mm.size(), Rgb8{10, 20, 30});
   for (int v = 0; v < height; ++v) {
-    for (int u = 0; u < width; ++u) frame.depth_mm[static_cast<std::size_t>(v * width + u)] = u < width / 2 ? left_mm : right_mm;
+    for (int u = 0; u < width; ++u)
+      frame.depth_mm[static_cast<std::size_t>(v * width + u)] = u < width / 2 ? left_mm : right_mm;
   }
   return frame;
 }
@@ -141,22 +140,23 @@ TEST(Preprocessor, TablePrismDropsClustersBesideTheTable) {
   }
   // The support polygon is the table's visible top: its corners lie within the table.
   ASSERT_GE(with.table_polygon().size(), 4u);
-  EXPECT_FALSE(inside_convex_polygon(with.table_polygon(),
-                                     with.on_table_plane(Camera{}.world_to_camera({0.44f, 0.f, 0.1f}))));
-  EXPECT_TRUE(inside_convex_polygon(with.table_polygon(),
-                                    with.on_table_plane(Camera{}.world_to_camera({0.f, 0.f, 0.1f}))));
+  EXPECT_FALSE(
+      inside_convex_polygon(with.table_polygon(), with.on_table_plane(Camera{}.world_to_camera({0.44f, 0.f, 0.1f}))));
+  EXPECT_TRUE(
+      inside_convex_polygon(with.table_polygon(), with.on_table_plane(Camera{}.world_to_camera({0.f, 0.f, 0.1f}))));
 }
 
 TEST(Preprocessor, PlaneMarginGrowsWithDepth) {
   test_scene::Scene scene;
-  scene.boxes.push_back(test_scene::Box{{-0.05f, -0.05f, 0.f}, {0.05f, 0.05f, 0.015f}, Rgb8{200, 30, 30}});  // 15 mm tall
-  Camera far;  // about 1.9 m from the box
+  scene.boxes.push_back(
+      test_scene::Box{{-0.05f, -0.05f, 0.f}, {0.05f, 0.05f, 0.015f}, Rgb8{200, 30, 30}});  // 15 mm tall
+  Camera far;                                                                              // about 1.9 m from the box
   far.eye = {0.f, -1.3f, 1.4f};
   const Frame frame = test_scene::render(scene, far);
   PreprocessorOptions options;
   Preprocessor fixed(options);
   EXPECT_GT(fixed.process(frame.view()).size(), 20u);  // 1 cm margin: its top survives
-  options.plane_margin_sigmas = 3.f;                    // 3 sigma at 1.9 m: 1.6 cm
+  options.plane_margin_sigmas = 3.f;                   // 3 sigma at 1.9 m: 1.6 cm
   Preprocessor growing(options);
   EXPECT_EQ(growing.process(frame.view()).size(), 0u);
   const Frame near = test_scene::render(scene, Camera{});  // about 1 m: 3 sigma = 5.6 mm, the 1 cm margin holds
@@ -219,7 +219,8 @@ TEST(Preprocessor, JitteredGridMovesEveryFrameAndReplaysByTheFramesSeq) {
   // The same frame under seqs 1, 2, 3, and under 3, 2, 1 in another preprocessor: each seq's grid (and
   // so its scene) is the same whatever came before, and no two seqs share a grid.
   std::vector<SceneCloud> by_seq(4);
-  for (std::int64_t seq = 1; seq <= 3; ++seq) by_seq[static_cast<std::size_t>(seq)] = forward.process(frame.view(), seq);
+  for (std::int64_t seq = 1; seq <= 3; ++seq)
+    by_seq[static_cast<std::size_t>(seq)] = forward.process(frame.view(), seq);
   for (std::int64_t seq = 3; seq >= 1; --seq) {
     const SceneCloud& again = backward.process(frame.view(), seq);
     const SceneCloud& first = by_seq[static_cast<std::size_t>(seq)];
@@ -496,8 +497,8 @@ TEST(VoxelDownsampler, MeansCountsAndOrderOnHandMadeInput) {
   EXPECT_TRUE(voxels.positions()[0].isApprox(Eigen::Vector3f(0.02f, 0.04f, 0.10f / 3.f), 1e-6f));
   EXPECT_TRUE(voxels.positions()[1].isApprox(Eigen::Vector3f(0.13f, 0.05f, 0.03f), 1e-6f));
   EXPECT_TRUE(voxels.positions()[2].isApprox(Eigen::Vector3f(-0.01f, 0.02f, 0.03f), 1e-6f));
-  EXPECT_EQ(voxels.colors()[0], (Rgb8{20, 0, 1}));   // (10+20+31)/3 = 20.3, (0+1+1)/3 = 0.67 -> 1
-  EXPECT_EQ(voxels.colors()[1], (Rgb8{0, 76, 0}));   // (100+51)/2 = 75.5 rounds up
+  EXPECT_EQ(voxels.colors()[0], (Rgb8{20, 0, 1}));  // (10+20+31)/3 = 20.3, (0+1+1)/3 = 0.67 -> 1
+  EXPECT_EQ(voxels.colors()[1], (Rgb8{0, 76, 0}));  // (100+51)/2 = 75.5 rounds up
   EXPECT_EQ(voxels.colors()[2], (Rgb8{1, 2, 3}));
   EXPECT_EQ(voxels.point_counts()[0], 3);
   EXPECT_EQ(voxels.point_counts()[1], 2);

@@ -1,5 +1,3 @@
-#include "mfot/segmentation.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/segmentation.hpp"
 
 namespace mfot {
 namespace {
@@ -30,7 +30,8 @@ Pose make_pose(const Eigen::Vector3f& t, float angle, const Eigen::Vector3f& axi
 
 // Surface samples of an axis-aligned box centred at the origin, on a grid of the given step
 // shifted by phase; faces listed in skip_faces (0..5 = -x, +x, -y, +y, -z, +z) are left out.
-std::vector<Eigen::Vector3f> box_surface(const Eigen::Vector3f& size, float step, float phase, std::vector<int> skip_faces = {}) {
+std::vector<Eigen::Vector3f> box_surface(const Eigen::Vector3f& size, float step, float phase,
+                                         std::vector<int> skip_faces = {}) {
   std::vector<Eigen::Vector3f> points;
   const Eigen::Vector3f half = size / 2;
   for (int face = 0; face < 6; ++face) {
@@ -164,8 +165,9 @@ TEST(Segmentation, SplitsTwoTouchingBoxes) {
   std::vector<float> distance_to_contact;
   const auto add_box = [&](const Pose& pose, std::int32_t id, int hidden_face) {
     for (const auto& p : box_surface(size, 0.005f, 0.0025f, {hidden_face})) {
-      const Eigen::Vector3f noise = (Eigen::Vector3f(uniform01(rng), uniform01(rng), uniform01(rng)) * 2.f -
-                                     Eigen::Vector3f::Ones()) * 0.0015f / std::sqrt(3.f);
+      const Eigen::Vector3f noise =
+          (Eigen::Vector3f(uniform01(rng), uniform01(rng), uniform01(rng)) * 2.f - Eigen::Vector3f::Ones()) * 0.0015f /
+          std::sqrt(3.f);
       const Eigen::Vector3f q = pose.isometry() * p + noise;
       scene.push_back(q);
       truth.push_back(id);

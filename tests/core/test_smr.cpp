@@ -1,12 +1,12 @@
 // Smoothed Color Ranging (thesis 3.2.1, equations 3.5-3.10). Expected vectors are worked out by
 // hand from the formulas in ALGORITHM.md; the arithmetic is in the comments.
-#include "mfot/smr_feature.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
 #include <random>
 #include <stdexcept>
+
+#include "mfot/smr_feature.hpp"
 
 namespace mfot {
 namespace {
@@ -16,8 +16,8 @@ using Dense = std::array<float, kSmrBins>;
 void expect_dense(Rgb8 color, const Dense& expected) {
   const Dense h = compute_smr(color).dense();
   for (int c = 0; c < kSmrBins; ++c) {
-    EXPECT_NEAR(h[c], expected[c], 1e-5f) << "bin " << c << " of (" << int(color.r) << ","
-                                          << int(color.g) << "," << int(color.b) << ")";
+    EXPECT_NEAR(h[c], expected[c], 1e-5f)
+        << "bin " << c << " of (" << int(color.r) << "," << int(color.g) << "," << int(color.b) << ")";
   }
 }
 

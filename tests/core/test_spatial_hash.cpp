@@ -1,5 +1,3 @@
-#include "mfot/spatial_hash.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/spatial_hash.hpp"
 
 namespace mfot {
 namespace {
@@ -21,7 +21,8 @@ std::vector<Eigen::Vector3f> random_points(std::size_t n, float extent, std::uin
   return points;
 }
 
-int brute_nearest(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& q, float max_distance, float& d2_out) {
+int brute_nearest(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& q, float max_distance,
+                  float& d2_out) {
   int best = -1;
   float best_d2 = max_distance * max_distance;
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -128,8 +129,7 @@ TEST_P(SpatialHashVsBruteForce, NearestWithBoundKeepsItsPointOverTheMovesItAllow
     // The largest move the bound allows, in a random direction: the nearest stays.
     const float slack = (std::sqrt(others_d2) - std::sqrt(d2)) / 2.f;
     if (slack <= 1e-5f) continue;
-    const Eigen::Vector3f moved =
-        q + (slack - 1e-5f) * Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
+    const Eigen::Vector3f moved = q + (slack - 1e-5f) * Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
     float moved_d2 = 0.f;
     const int still = brute_nearest(points, moved, std::numeric_limits<float>::max(), moved_d2);
     ASSERT_EQ(still, got);
@@ -229,7 +229,8 @@ TEST(SpatialHash, NonFinitePointsAreSkipped) {
 
 TEST(SpatialHash, NegativeCoordinatesAndFarPoints) {
   // Cells straddling zero and points far outside the packed coordinate range stay exact.
-  const std::vector<Eigen::Vector3f> points = {{-0.0001f, -0.0001f, -0.0001f}, {0.0001f, 0.0001f, 0.0001f}, {1e6f, 0.f, 0.f}, {1.1e6f, 0.f, 0.f}};
+  const std::vector<Eigen::Vector3f> points = {
+      {-0.0001f, -0.0001f, -0.0001f}, {0.0001f, 0.0001f, 0.0001f}, {1e6f, 0.f, 0.f}, {1.1e6f, 0.f, 0.f}};
   SpatialHash hash(0.01f);
   hash.build(points);
   EXPECT_EQ(hash.nearest(Eigen::Vector3f(-0.00005f, -0.0001f, -0.0001f), 0.01f), 0);

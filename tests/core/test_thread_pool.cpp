@@ -1,10 +1,10 @@
-#include "mfot/thread_pool.hpp"
-
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "mfot/thread_pool.hpp"
 
 namespace mfot {
 namespace {

@@ -1,9 +1,3 @@
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/smr_feature.hpp"
-#include "mfot/tracking_step.hpp"
-#include "expect_invalid_argument.hpp"
-#include "synthetic_object.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +11,12 @@
 #include <tuple>
 #include <utility>
 #include <vector>
+
+#include "expect_invalid_argument.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/tracking_step.hpp"
+#include "synthetic_object.hpp"
 
 namespace mfot {
 namespace {
@@ -114,7 +114,8 @@ struct FingersOnBox {
   std::vector<Eigen::Vector3f> fingers;  // camera frame
   FingersOnBox() {
     for (float y = -0.06f; y <= 0.06f; y += 0.005f) {
-      for (float z = -0.035f; z <= 0.035f; z += 0.005f) fingers.push_back(truth.isometry() * Eigen::Vector3f(0.055f, y, z));
+      for (float z = -0.035f; z <= 0.035f; z += 0.005f)
+        fingers.push_back(truth.isometry() * Eigen::Vector3f(0.055f, y, z));
     }
   }
   ColoredCloud scene() const {
@@ -208,7 +209,6 @@ TEST(TrackingStep, FollowsAnIsolatedObjectWithTheIsolatedMotion) {
   };
   check(false);
   check(true);
-
 
   // Off: the filter's own options, claims or not.
   options.follow_isolated = false;
@@ -361,8 +361,7 @@ TEST(TrackingStep, HoldsAHiddenObjectAndStepsAgainOnceItShows) {
   EXPECT_EQ(r.confidence, 0.f);  // nothing seen yet: nothing to be confident of
 
   const ColoredCloud visible = test::transformed(test::make_test_object(0.5f), setup.truth);
-  const TrackingStepResult back =
-      step.track(visible, setup.model, box, filter, likelihood);
+  const TrackingStepResult back = step.track(visible, setup.model, box, filter, likelihood);
   EXPECT_FALSE(back.held);
   EXPECT_GT(back.confidence, 0.8f);
   // Hidden again: the confidence halves every hold_confidence_half_life holds in a row.
@@ -507,8 +506,8 @@ TEST(TrackingStep, KeepsAPartlyHiddenStillObjectWhereItWasAgainstAModeOffIt) {
   const HandOverBox setup;
   Pose mode = setup.truth;
   mode.translation.x() += 0.006f;
-  mode.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(6.f), Eigen::Vector3f::UnitY())) *
-                   mode.rotation).normalized();
+  mode.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(6.f), Eigen::Vector3f::UnitY())) * mode.rotation)
+                      .normalized();
   ModeAt likelihood(mode);
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   const auto run = [&](const TrackingStepOptions& options, bool hand, bool companion) {
@@ -533,9 +532,9 @@ TEST(TrackingStep, KeepsAPartlyHiddenStillObjectWhereItWasAgainstAModeOffIt) {
     EXPECT_LT(test::translation_error(checked.estimate, setup.truth), 0.002f);
     EXPECT_LT(test::degrees(test::rotation_error(checked.estimate, setup.truth)), 1.f);
   }
-  for (const auto& [options, hand, companion] : {std::tuple(last_pose_checked(0.f), true, false),
-                                                 std::tuple(last_pose_checked(0.15f), false, false),
-                                                 std::tuple(last_pose_checked(0.15f), true, true)}) {
+  for (const auto& [options, hand, companion] :
+       {std::tuple(last_pose_checked(0.f), true, false), std::tuple(last_pose_checked(0.15f), false, false),
+        std::tuple(last_pose_checked(0.15f), true, true)}) {
     const auto [walked, none] = run(options, hand, companion);
     EXPECT_EQ(none, 0);
     EXPECT_GT(test::degrees(test::rotation_error(walked.estimate, setup.truth)), 4.f);
@@ -579,8 +578,8 @@ TEST(TrackingStep, TheLastPoseCheckFollowsAMovingObject) {
 TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
   const HandOverBox setup;
   Pose last = setup.truth;
-  last.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(-8.f), Eigen::Vector3f::UnitY())) *
-                   last.rotation).normalized();
+  last.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(-8.f), Eigen::Vector3f::UnitY())) * last.rotation)
+                      .normalized();
   ModeAt likelihood(last);
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   const PoseVector turn = pose_difference(last, setup.truth);
@@ -598,8 +597,8 @@ TEST(TrackingStep, StartsAGrippedObjectWhereItsCompanionTakesIt) {
   EXPECT_TRUE(followed.companion_pose_kept);
   EXPECT_LT(test::degrees(test::rotation_error(followed.estimate, setup.truth)), 1.f);
   // Off, the companion turning the other way, or too little of the box occluded (no hand): the filter's estimate.
-  for (const auto& [check, companion, hand] : {std::tuple(false, turn, true), std::tuple(true, PoseVector(-turn), true),
-                                               std::tuple(true, turn, false)}) {
+  for (const auto& [check, companion, hand] :
+       {std::tuple(false, turn, true), std::tuple(true, PoseVector(-turn), true), std::tuple(true, turn, false)}) {
     const TrackingStepResult stayed = run(check, companion, hand);
     EXPECT_FALSE(stayed.companion_pose_kept) << "check " << check << ", hand " << hand;
     EXPECT_GT(test::degrees(test::rotation_error(stayed.estimate, setup.truth)), 6.f) << "check " << check;
@@ -616,8 +615,9 @@ TEST(TrackingStep, KeepsAFilterTurnTheCompanionAgreesOnWhereTheRefinementTurnsIt
   const HandOverBox setup;
   const Pose last = setup.truth;
   Pose turned = last;
-  turned.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(3.f), Eigen::Vector3f::UnitY())) *
-                     last.rotation).normalized();
+  turned.rotation =
+      (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(3.f), Eigen::Vector3f::UnitY())) * last.rotation)
+          .normalized();
   ModeAt likelihood(turned);
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   const PoseVector turn = pose_difference(last, turned);
@@ -645,8 +645,8 @@ TEST(TrackingStep, KeepsAFilterTurnTheCompanionAgreesOnWhereTheRefinementTurnsIt
   // turn: ICP's estimate, where the box was.
   PoseVector slight = turn;
   slight.tail<3>() *= 0.1f;
-  for (const auto& [min_deg, companion] : {std::pair(0.f, turn), std::pair(0.7f, PoseVector(-turn)),
-                                           std::pair(0.7f, slight), std::pair(10.f, turn)}) {
+  for (const auto& [min_deg, companion] :
+       {std::pair(0.f, turn), std::pair(0.7f, PoseVector(-turn)), std::pair(0.7f, slight), std::pair(10.f, turn)}) {
     const TrackingStepResult held = run(min_deg, companion, at_last);
     EXPECT_FALSE(held.companion_turn_kept) << "minimum " << min_deg;
     EXPECT_LT(test::degrees(test::rotation_error(held.estimate, last)), 0.5f) << "minimum " << min_deg;
@@ -667,8 +667,9 @@ TEST(TrackingStep, TheConfidenceDropsWhereTheViewSeesThroughTheEstimate) {
   const ColoredCloud scene = setup.scene(-0.05f);  // no hand
   const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
   Pose turned = setup.truth;
-  turned.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(12.f), Eigen::Vector3f::UnitX())) *
-                     turned.rotation).normalized();
+  turned.rotation =
+      (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(12.f), Eigen::Vector3f::UnitX())) * turned.rotation)
+          .normalized();
   const auto step_at = [&](const Pose& pose, float weight, const std::optional<ViewBounds>& view) {
     TrackingStepOptions options = occlusion_aware();
     options.confidence_seen_through_weight = weight;

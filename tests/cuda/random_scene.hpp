@@ -2,14 +2,14 @@
 // Random but reproducible likelihood inputs for the backend tests: a coloured model, hypothesis
 // data seen from a true pose (with noise and outliers) and particles scattered around it.
 
-#include "mfot/likelihood.hpp"
-#include "mfot/smr_feature.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
+
+#include "mfot/likelihood.hpp"
+#include "mfot/smr_feature.hpp"
 
 namespace mfot::test {
 
@@ -30,7 +30,8 @@ inline Pose perturbed(const Pose& pose, float sigma_t, float sigma_r, std::mt199
   Pose p = pose;
   p.translation += sigma_t * Eigen::Vector3f(gaussian(rng), gaussian(rng), gaussian(rng));
   const Eigen::Vector3f w = sigma_r * Eigen::Vector3f(gaussian(rng), gaussian(rng), gaussian(rng));
-  if (w.norm() > 0.f) p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(w.norm(), w.normalized())) * p.rotation).normalized();
+  if (w.norm() > 0.f)
+    p.rotation = (Eigen::Quaternionf(Eigen::AngleAxisf(w.norm(), w.normalized())) * p.rotation).normalized();
   return p;
 }
 
@@ -44,8 +45,8 @@ struct RandomScene {
 // model_points in a box of `extent` metres around the origin; data_points of which 80 % are
 // model points seen at the true pose with 1 mm noise and 20 % random points around the object
 // (some outside the grid); particles spread by sigma_t metres and sigma_r radians.
-inline RandomScene random_scene(std::size_t model_points, std::size_t data_points, std::size_t particles,
-                                float sigma_t, float sigma_r, std::uint64_t seed, float extent = 0.12f) {
+inline RandomScene random_scene(std::size_t model_points, std::size_t data_points, std::size_t particles, float sigma_t,
+                                float sigma_r, std::uint64_t seed, float extent = 0.12f) {
   std::mt19937_64 rng(seed);
   RandomScene scene;
   for (std::size_t i = 0; i < model_points; ++i) {
@@ -67,8 +68,8 @@ inline RandomScene random_scene(std::size_t model_points, std::size_t data_point
           0.001f * Eigen::Vector3f(gaussian(rng), gaussian(rng), gaussian(rng));
       c = scene.model.cloud.colors[k];
     } else {
-      z = scene.truth.translation + 2.f * extent * Eigen::Vector3f(uniform01(rng) - 0.5f, uniform01(rng) - 0.5f,
-                                                                   uniform01(rng) - 0.5f);
+      z = scene.truth.translation +
+          2.f * extent * Eigen::Vector3f(uniform01(rng) - 0.5f, uniform01(rng) - 0.5f, uniform01(rng) - 0.5f);
       c = random_color(rng);
     }
     scene.data.points.push_back(z);

@@ -1,8 +1,8 @@
 // CUDA JCSD likelihood against the CPU JCSD (the reference). These tests need a CUDA device and
 // are skipped, with the reason, when the build has no CUDA or no device is present.
 
-#include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/cuda/fallback_likelihood.hpp"
+#include "mfot/cuda/likelihood_factory.hpp"
 #include "mfot/jcsd_likelihood.hpp"
 #include "random_scene.hpp"
 
@@ -70,7 +70,7 @@ TEST(CudaJcsdOptions, RejectsOutOfRangeValuesBeforeTouchingTheDevice) {
 struct ParityCase {
   std::size_t model_points, data_points, particles;
   float sigma_t, sigma_r;
-  int point_splits;  // 0: chosen per call
+  int point_splits;      // 0: chosen per call
   float extent = 0.12f;  // model size in metres: 0.5 m puts the grid past shared memory
 };
 
@@ -96,14 +96,14 @@ TEST_P(CudaJcsdParity, MatchesCpuJcsd) {
 
 INSTANTIATE_TEST_SUITE_P(
     Shapes, CudaJcsdParity,
-    ::testing::Values(ParityCase{500, 1, 3, 0.002f, 0.02f, 4},        // one point (splits capped at the points)
-                      ParityCase{900, 100, 31, 0.01f, 0.1f, 0},       // one full and one partial tile
-                      ParityCase{900, 900, 33, 0.01f, 0.1f, 64},      // three tiles, one particle in the last
-                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 0},     // the Table 4.1 size
-                      ParityCase{900, 900, 2000, 0.05f, 0.6f, 0},     // wide spread: many points off the grid
-                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 7},  // uneven splits of many points
-                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 64},     // many items per block, empty splits
-                      ParityCase{3000, 900, 2000, 0.02f, 0.1f, 0, 0.5f},   // grid in global memory
+    ::testing::Values(ParityCase{500, 1, 3, 0.002f, 0.02f, 4},              // one point (splits capped at the points)
+                      ParityCase{900, 100, 31, 0.01f, 0.1f, 0},             // one full and one partial tile
+                      ParityCase{900, 900, 33, 0.01f, 0.1f, 64},            // three tiles, one particle in the last
+                      ParityCase{900, 900, 2000, 0.01f, 0.1f, 0},           // the Table 4.1 size
+                      ParityCase{900, 900, 2000, 0.05f, 0.6f, 0},           // wide spread: many points off the grid
+                      ParityCase{2000, 5000, 257, 0.005f, 0.05f, 7},        // uneven splits of many points
+                      ParityCase{300, 70, 5000, 0.02f, 0.2f, 64},           // many items per block, empty splits
+                      ParityCase{3000, 900, 2000, 0.02f, 0.1f, 0, 0.5f},    // grid in global memory
                       ParityCase{3000, 900, 7000, 0.02f, 0.1f, 3, 0.5f}));  // global memory, several items per block
 
 TEST_F(CudaJcsd, MatchesTheReferencePointScores) {

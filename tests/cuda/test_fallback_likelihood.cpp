@@ -1,9 +1,5 @@
 // FallbackLikelihood with a scripted primary: runs without a GPU.
 
-#include "mfot/cuda/fallback_likelihood.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "random_scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +7,10 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "mfot/cuda/fallback_likelihood.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "random_scene.hpp"
 
 namespace mfot {
 namespace {
@@ -30,15 +30,19 @@ class ScriptedPrimary final : public Likelihood {
   explicit ScriptedPrimary(Script script) : script_(std::move(script)) {}
   std::string_view name() const override { return "scripted-gpu"; }
   void set_model(const ObjectModel&) override {
-    if (fails(script_.failing_set_models, set_model_calls_++)) throw std::runtime_error("CUDA cudaMalloc (grid) failed: out of memory");
+    if (fails(script_.failing_set_models, set_model_calls_++))
+      throw std::runtime_error("CUDA cudaMalloc (grid) failed: out of memory");
   }
   void evaluate(std::span<const Pose>, const HypothesisData&, std::span<float> scores) override {
-    if (fails(script_.failing_evaluates, evaluate_calls_++)) throw std::runtime_error("CUDA score_kernel failed: unspecified launch failure");
+    if (fails(script_.failing_evaluates, evaluate_calls_++))
+      throw std::runtime_error("CUDA score_kernel failed: unspecified launch failure");
     std::fill(scores.begin(), scores.end(), script_.score);
   }
 
  private:
-  static bool fails(const std::vector<int>& calls, int n) { return std::find(calls.begin(), calls.end(), n) != calls.end(); }
+  static bool fails(const std::vector<int>& calls, int n) {
+    return std::find(calls.begin(), calls.end(), n) != calls.end();
+  }
   Script script_;
   int set_model_calls_ = 0;
   int evaluate_calls_ = 0;

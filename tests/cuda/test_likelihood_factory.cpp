@@ -1,14 +1,14 @@
 // make_likelihood and cuda_available: these run with or without a GPU.
 
-#include "mfot/cuda/likelihood_factory.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "random_scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "mfot/cuda/likelihood_factory.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "random_scene.hpp"
 
 namespace mfot {
 namespace {

@@ -1,14 +1,13 @@
 // LCCP discovery (mfot_discovery) on synthetic table-top views: boxes as a camera above the table
 // sees them (visible faces only, 5 mm samples like the scene's voxels).
-#include "mfot/object_discovery.hpp"
-
-#include "../core/preprocess_test_scene.hpp"
-
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <map>
 #include <set>
+
+#include "../core/preprocess_test_scene.hpp"
+#include "mfot/object_discovery.hpp"
 
 namespace mfot {
 namespace {
@@ -18,7 +17,7 @@ const Eigen::Vector3f kCamera{0.3f, -0.6f, 0.6f};  // world frame: table z = 0, 
 struct View {
   std::vector<Eigen::Vector3f> positions;  // camera frame
   std::vector<Rgb8> colors;
-  std::vector<int> box;                    // which box each point samples
+  std::vector<int> box;  // which box each point samples
 };
 
 // Camera frame: at kCamera looking at the world origin, x right, y down, z forward (the preprocessing

@@ -2,14 +2,14 @@
 // Preprocessor: where `apart`'s low box touches the tall box, its front face 1 cm behind the tall box's, a
 // 3 cm supervoxel straddles the step and LCCP reads the connection as smooth; 2 cm supervoxels (the shipped
 // merger.discovery.seed_resolution) find it more often, most of all where 3 cm almost never does.
-#include "mfot/object_discovery.hpp"
-#include "mfot/preprocessing.hpp"
-#include "mfot/sim/simulator.hpp"
-
 #include <gtest/gtest.h>
 
 #include <map>
 #include <vector>
+
+#include "mfot/object_discovery.hpp"
+#include "mfot/preprocessing.hpp"
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot {
 namespace {

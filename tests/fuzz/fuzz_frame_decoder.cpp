@@ -5,14 +5,14 @@
 // or decode_frame throws FrameCodecError) or becomes a frame that passes Frame::validate();
 // nothing else may happen (other exceptions, crashes, sanitizer reports, huge allocations).
 
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
 #include "fuzz_support.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
-
-#include <cstddef>
-#include <cstdint>
-#include <vector>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace mfot::service;

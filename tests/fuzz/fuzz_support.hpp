@@ -3,6 +3,7 @@
 // a check that aborts (so libFuzzer and the corpus driver both report it as a crash).
 
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -11,7 +12,6 @@
 #include <filesystem>
 #include <string>
 #include <system_error>
-#include <unistd.h>
 
 namespace mfot::fuzz {
 
@@ -20,8 +20,8 @@ namespace mfot::fuzz {
   std::fprintf(stderr, "fuzz invariant violated: %s\n", what);
   std::abort();
 }
-#define MFOT_FUZZ_CHECK(condition) \
-  do {                             \
+#define MFOT_FUZZ_CHECK(condition)                    \
+  do {                                                \
     if (!(condition)) ::mfot::fuzz::fail(#condition); \
   } while (false)
 
@@ -41,9 +41,9 @@ inline void remove_scratch_folder();
 inline const std::filesystem::path& scratch_folder() {
   static const std::filesystem::path folder = [] {
     std::error_code error;
-    const std::filesystem::path base =
-        std::filesystem::is_directory("/dev/shm", error) ? std::filesystem::path("/dev/shm")
-                                                         : std::filesystem::temp_directory_path();
+    const std::filesystem::path base = std::filesystem::is_directory("/dev/shm", error)
+                                           ? std::filesystem::path("/dev/shm")
+                                           : std::filesystem::temp_directory_path();
     auto path = base / ("mfot-fuzz-" + std::to_string(::getpid()));
     std::filesystem::create_directories(path);
     return path;

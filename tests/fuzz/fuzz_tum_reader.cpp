@@ -8,15 +8,15 @@
 // name any path; only entries naming this folder's two images are read, so an input can never
 // make the target open /dev/stdin or similar.
 
-#include "fuzz_support.hpp"
-#include "mfot/service/image_io.hpp"
-#include "mfot/service/tum_dataset.hpp"
-
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "fuzz_support.hpp"
+#include "mfot/service/image_io.hpp"
+#include "mfot/service/tum_dataset.hpp"
 
 namespace {
 

@@ -43,18 +43,13 @@ class RepoTest(unittest.TestCase):
                 self.assertIn("#", line, f"undocumented config value: {line.strip()}")
 
     def test_cpp_files_are_formatted(self):
-        # Every C++/CUDA file in git follows .clang-format, except those still listed in .clang-format-pending.
+        # Every C++/CUDA file in git follows .clang-format.
         clang_format = shutil.which("clang-format")
         self.assertIsNotNone(clang_format, "clang-format not found: scripts/setup installs it")
-        pending = {line.strip() for line in (REPO / ".clang-format-pending").read_text().splitlines()
-                   if line.strip() and not line.startswith("#")}
         files = subprocess.run(["git", "ls-files", "*.cpp", "*.hpp", "*.h", "*.cu", "*.cuh"], cwd=REPO,
                                capture_output=True, text=True, check=True).stdout.split()
         self.assertTrue(files)
-        for stale in sorted(pending - set(files)):
-            self.fail(f".clang-format-pending lists {stale}, which is not in git: remove its line")
-        checked = [f for f in files if f not in pending]
-        result = subprocess.run([clang_format, "--dry-run", "--Werror", *checked], cwd=REPO, capture_output=True,
+        result = subprocess.run([clang_format, "--dry-run", "--Werror", *files], cwd=REPO, capture_output=True,
                                 text=True)
         self.assertEqual(result.returncode, 0, f"not formatted (run clang-format -i on them):\n{result.stderr[:4000]}")
 

@@ -1,12 +1,12 @@
 #pragma once
 // What MergerCore said, recorded for tests, and a clock the test moves by hand.
 
-#include "mfot/service/merger_core.hpp"
-
 #include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "mfot/service/merger_core.hpp"
 
 namespace mfot::service::testing {
 
@@ -46,7 +46,9 @@ class RecordingSink : public MergerSink {
     requests.push_back({object_id, worker_id, worker_instance});
   }
   void send_frame_done(frame_done_t& message) override { frame_dones.push_back(message); }
-  void resend_scene(std::span<const std::uint8_t> message) override { resent_scenes.emplace_back(message.begin(), message.end()); }
+  void resend_scene(std::span<const std::uint8_t> message) override {
+    resent_scenes.emplace_back(message.begin(), message.end());
+  }
   void publish_frame(const FinishedFrame& frame) override {
     PublishedFrame p{frame.scene.frame_seq, frame.result.labels, frame.result.created, frame.result.retired, {}, {}};
     for (const auto& [id, object] : frame.objects) {

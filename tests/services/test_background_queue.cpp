@@ -1,10 +1,10 @@
-#include "mfot/service/background_queue.hpp"
-
 #include <gtest/gtest.h>
 
 #include <future>
 #include <stdexcept>
 #include <vector>
+
+#include "mfot/service/background_queue.hpp"
 
 namespace mfot::service {
 namespace {
@@ -27,8 +27,8 @@ TEST(BackgroundQueue, PushBlocksWhileTheBacklogIsFull) {
     started.set_value();
     released.wait();
   });
-  started.get_future().wait();    // the first job runs and holds the worker
-  queue.push([] {});              // fills the backlog of one
+  started.get_future().wait();  // the first job runs and holds the worker
+  queue.push([] {});            // fills the backlog of one
   auto third = std::async(std::launch::async, [&queue] { queue.push([] {}); });
   // The third push cannot return before the first job is released.
   EXPECT_EQ(third.wait_for(std::chrono::seconds(0)), std::future_status::timeout);

@@ -1,15 +1,14 @@
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/capture/pacing.hpp"
-#include "mfot/capture/sim_source.hpp"
-#include "mfot/capture/tum_source.hpp"
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/capture/pacing.hpp"
+#include "mfot/capture/sim_source.hpp"
+#include "mfot/capture/tum_source.hpp"
 
 namespace mfot::capture {
 namespace {
@@ -254,9 +253,9 @@ TEST(LockstepGate, KeepsAtMostTheWindowInFlightAndTimesTheOldest) {
 }
 
 TEST(CaptureSettings, ReadsTheConfigSectionStrictly) {
-  const YAML::Node root = service::merged_over_defaults(YAML::Load(
-      "capture:\n  source: tum\n  folder: /data/fr1\n  rate: lockstep\n  lockstep_timeout_s: 1.5\n"
-      "  depth_encoding: raw\n  color_encoding: png\n  scenario: rotate\n  seed: 7\n  max_frames: 10\n"));
+  const YAML::Node root = service::merged_over_defaults(
+      YAML::Load("capture:\n  source: tum\n  folder: /data/fr1\n  rate: lockstep\n  lockstep_timeout_s: 1.5\n"
+                 "  depth_encoding: raw\n  color_encoding: png\n  scenario: rotate\n  seed: 7\n  max_frames: 10\n"));
   const CaptureSettings settings = load_capture_settings(service::config_section(root, "capture"));
   EXPECT_EQ(settings.source, "tum");
   EXPECT_EQ(settings.tum_folder, "/data/fr1");

@@ -1,7 +1,3 @@
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/service/config.hpp"
-#include "mfot/service/pipeline_config.hpp"
-
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -9,6 +5,10 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/service/config.hpp"
+#include "mfot/service/pipeline_config.hpp"
 
 namespace mfot::service {
 namespace {
@@ -104,14 +104,14 @@ TEST(Config, NestedSectionsAndVectors) {
 }
 
 TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
-  const TrackerConfig c = load_tracker_config(with_defaults(
-      "tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"));
+  const TrackerConfig c = load_tracker_config(
+      with_defaults("tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"));
   EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.04f);
   EXPECT_TRUE(c.step.exclude_occluders);
   EXPECT_FLOAT_EQ(c.step.hold_occluded_share, 0.7f);
   // The merger's retirement counts a hidden object's frames with the same share.
-  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("tracker:\n  hold_occluded_share: 0.7\n")).manager.hidden_occluded_share,
-                  0.7f);
+  EXPECT_FLOAT_EQ(
+      load_merger_config(with_defaults("tracker:\n  hold_occluded_share: 0.7\n")).manager.hidden_occluded_share, 0.7f);
   // Absent keys: the shipped step (configs/default.yaml), not the option struct's thesis values.
   const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
   EXPECT_TRUE(shipped.step.exclude_occluders);
@@ -121,8 +121,7 @@ TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
 }
 
 TEST(Config, TheLastPoseCheckKeysReachTheStep) {
-  const TrackerConfig c = load_tracker_config(with_defaults(
-      "tracker:\n  last_pose_check_occluded_share: 0.3\n"));
+  const TrackerConfig c = load_tracker_config(with_defaults("tracker:\n  last_pose_check_occluded_share: 0.3\n"));
   EXPECT_FLOAT_EQ(c.step.last_pose_check_occluded_share, 0.3f);
   // Absent keys: the shipped check (configs/default.yaml), not the option struct's thesis value (off).
   const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
@@ -139,13 +138,15 @@ TEST(Config, TheConfidencesSeenThroughWeightIsTheMethods) {
   // The share needs the scene's rays, which only the hold indexes: without a hold, the fit alone; the pose checks need
   // the hold too, and are named.
   const std::string hold_off = "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n";
-  EXPECT_EQ(load_tracker_config(with_defaults(hold_off + "  companion_pose_check: false\n")).step.confidence_seen_through_weight,
+  EXPECT_EQ(load_tracker_config(with_defaults(hold_off + "  companion_pose_check: false\n"))
+                .step.confidence_seen_through_weight,
             0.f);
   expect_rejected(load_tracker_config, hold_off, "companion_pose_check");
 }
 
 TEST(Config, TheCompanionPoseCheckKeyReachesTheStep) {
-  EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: false\n")).step.companion_pose_check);
+  EXPECT_FALSE(
+      load_tracker_config(with_defaults("tracker:\n  companion_pose_check: false\n")).step.companion_pose_check);
   // Absent: the shipped value (configs/default.yaml: on).
   EXPECT_TRUE(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_pose_check);
   EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: sometimes\n")), ConfigError);
@@ -171,7 +172,8 @@ TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
   EXPECT_FLOAT_EQ(load_merger_config(with_defaults("tracker:\n  exclude_claimed_radius: 0\n")).claimed_margin, 0.f);
   // Shipped: on (configs/default.yaml).
   EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.exclude_claimed_radius, 0.f);
-  for (const std::string bad : {"tracker:\n  exclude_claimed_radius: 0.5\n", "tracker:\n  exclude_claimed_radius: -1\n"}) {
+  for (const std::string bad :
+       {"tracker:\n  exclude_claimed_radius: 0.5\n", "tracker:\n  exclude_claimed_radius: -1\n"}) {
     try {
       load_tracker_config(with_defaults(bad));
       FAIL() << bad << " was accepted";
@@ -198,7 +200,8 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
   EXPECT_FLOAT_EQ(icp.step.hold_min_scored_share, 0.2f);
   EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
   // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
-  EXPECT_NO_THROW(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
+  EXPECT_NO_THROW(
+      load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
   const std::pair<std::string, std::string> bad[] = {
       {"tracker:\n  follow_isolated: true\n  exclude_claimed_radius: 0\n", "follow_isolated"},
       {"tracker:\n  icp_iterations: 51\n", "icp_iterations"},
@@ -210,8 +213,8 @@ TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
 }
 
 TEST(Config, ReidentificationKeysReachTheirOptions) {
-  const MergerConfig m = load_merger_config(with_defaults(
-      "tracker:\n  cell_size: 0.02\nmerger:\n  reidentify_register: false\n  reidentify_grown: false\n"));
+  const MergerConfig m = load_merger_config(
+      with_defaults("tracker:\n  cell_size: 0.02\nmerger:\n  reidentify_register: false\n  reidentify_grown: false\n"));
   EXPECT_FALSE(m.manager.reidentify_register);
   EXPECT_FALSE(m.manager.reidentify_grown);
   const MergerConfig shipped = load_merger_config(with_defaults(""));
@@ -219,9 +222,9 @@ TEST(Config, ReidentificationKeysReachTheirOptions) {
   // The method's constants (docs/method.md), not the option structs' thesis values: a box the hand brings back is
   // not swallowed by a few of the hand's points in its cluster, and a grown object is matched on enough of it.
   EXPECT_FLOAT_EQ(shipped.manager.propagation_min_seed_share, 0.1f);
-  EXPECT_FLOAT_EQ(
-      load_merger_config(with_defaults("merger:\n  propagation_min_seed_share: 0.2\n")).manager.propagation_min_seed_share,
-      0.2f);
+  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("merger:\n  propagation_min_seed_share: 0.2\n"))
+                      .manager.propagation_min_seed_share,
+                  0.2f);
   EXPECT_FLOAT_EQ(shipped.manager.reidentify_grown_min_share, 0.5f);
   EXPECT_FLOAT_EQ(shipped.manager.held_birth_margin, 0.02f);
   EXPECT_FLOAT_EQ(shipped.manager.join_split.split_min_departure, 0.03f);
@@ -233,22 +236,21 @@ TEST(Config, ReidentificationKeysReachTheirOptions) {
 }
 
 TEST(Config, CarryKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults(
-      "merger:\n  carry:\n    frames: 7\n    seen_through_share: 0.35\n"));
+  const MergerConfig m =
+      load_merger_config(with_defaults("merger:\n  carry:\n    frames: 7\n    seen_through_share: 0.35\n"));
   EXPECT_EQ(m.manager.carry.frames, 7);
   EXPECT_FLOAT_EQ(m.manager.carry.seen_through_share, 0.35f);
   // An object gripped away while hidden is retired until it shows again (the method's; carrying it was lost).
   EXPECT_EQ(m.manager.carry.gripped_away, CarryOptions::GrippedAway::kRetire);
   EXPECT_EQ(load_merger_config(with_defaults("merger:\n  carry:\n    frames: 0\n")).manager.carry.frames, 0);
-  for (const std::string key : {"frames: -1", "seen_through_share: 1.5", "gripped_away: carry", "translation: 0.02",
-                                "speed: 1"}) {
+  for (const std::string key :
+       {"frames: -1", "seen_through_share: 1.5", "gripped_away: carry", "translation: 0.02", "speed: 1"}) {
     expect_rejected(load_merger_config, "merger:\n  carry:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
 }
 
 TEST(Config, RefitKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults(
-      "merger:\n  refit:\n    enabled: false\n"));
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  refit:\n    enabled: false\n"));
   EXPECT_FALSE(m.manager.refit.enabled);
   const PartRefitOptions& r = load_merger_config(with_defaults("")).manager.refit;
   EXPECT_TRUE(r.enabled);  // the shipped default
@@ -263,11 +265,13 @@ TEST(Config, RefitKeysReachTheManager) {
 }
 
 TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
-  const MergerConfig m = load_merger_config(with_defaults(
-      "merger:\n  companion:\n    contact_distance: 0.015\n"));
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0.015\n"));
   EXPECT_FLOAT_EQ(m.manager.companion.contact_distance, 0.015f);
-  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n")).manager.companion.contact_distance, 0.f);
-  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  companion_fraction: 0.3\n")).filter.companion_fraction, 0.3f);
+  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n"))
+                .manager.companion.contact_distance,
+            0.f);
+  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  companion_fraction: 0.3\n")).filter.companion_fraction,
+                  0.3f);
   for (const std::string key : {"contact_distance: 0.5", "min_motion: 0.002", "rate: 1"}) {
     expect_rejected(load_merger_config, "merger:\n  companion:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
@@ -276,8 +280,10 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
 
 TEST(Config, ParticlesFollowRefinementReachesTheFilter) {
   EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0.25\n"))
-                      .filter.follow_replaced_estimate, 0.25f);
-  EXPECT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0\n")).filter.follow_replaced_estimate,
+                      .filter.follow_replaced_estimate,
+                  0.25f);
+  EXPECT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0\n"))
+                .filter.follow_replaced_estimate,
             0.f);
   expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 1.5\n", "particles_follow_refinement");
 }
@@ -294,30 +300,31 @@ TEST(Config, VoxelJitterReachesThePreprocessorWithItsSeed) {
 }
 
 TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults(
-      "merger:\n  discovery:\n    confirm_frames: 20\n"));
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_frames: 20\n"));
   EXPECT_EQ(m.manager.discovery.confirm_frames, 20);
   EXPECT_EQ(m.manager.discovery.method, DiscoveryMethod::kLccp);  // the method's (the thesis: whole clusters)
-  EXPECT_TRUE(m.manager.discovery.confirm_join);  // the shipped value
+  EXPECT_TRUE(m.manager.discovery.confirm_join);                  // the shipped value
   // The shipped supervoxel size: 2 cm finds the step between touching front faces that 3 cm straddles
   // (LccpDiscoveryOnSensorViews).
   EXPECT_FLOAT_EQ(m.manager.discovery.seed_resolution, 0.02f);
   // The shipped colour cut: a synthetic pile's touching objects come apart (PileDiscovery).
   EXPECT_FLOAT_EQ(m.manager.discovery.color_cut, 0.f);
-  EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n")).manager.discovery.confirm_join);
-  for (const std::string key : {"confirm_frames: -1", "confirm_votes: 4", "confirm_join: 3", "color_cut: 201", "method: clusters"}) {
+  EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n"))
+                   .manager.discovery.confirm_join);
+  for (const std::string key :
+       {"confirm_frames: -1", "confirm_votes: 4", "confirm_join: 3", "color_cut: 201", "method: clusters"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
   expect_rejected(load_merger_config, "merger:\n  new_object_held_margin: 0.05\n", "new_object_held_margin");
   // Fewer frames than the votes a split needs: refused, named.
   expect_rejected(load_merger_config, "merger:\n  discovery:\n    confirm_frames: 2\n", "confirm_frames");
-  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_frames: 0\n")).manager.discovery.confirm_frames,
+  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_frames: 0\n"))
+                .manager.discovery.confirm_frames,
             0);
 }
 
 TEST(Config, DiscoveryBoundaryKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(
-      with_defaults("merger:\n  discovery:\n    boundary_radius: 0.02\n"));
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  discovery:\n    boundary_radius: 0.02\n"));
   EXPECT_FLOAT_EQ(m.manager.discovery.boundary.radius, 0.02f);
   for (const std::string key : {"boundary_radius: -0.01", "boundary_radius: 0.5", "boundary_color_ratio: 8"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));

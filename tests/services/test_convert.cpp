@@ -1,7 +1,3 @@
-#include "mfot/service/convert.hpp"
-#include "mfot/service/merger_messages.hpp"
-#include "mfot/smr_feature.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
@@ -10,6 +6,10 @@
 #include <limits>
 #include <random>
 #include <vector>
+
+#include "mfot/service/convert.hpp"
+#include "mfot/service/merger_messages.hpp"
+#include "mfot/smr_feature.hpp"
 
 namespace mfot::service {
 namespace {
@@ -286,8 +286,8 @@ TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
   auto long_array = valid;
   long_array.cluster.push_back(0);
   EXPECT_EQ(scene_from_message(long_array, scene), "array sizes disagree with num_points");
-  for (const float voxel : {0.0f, -0.005f, std::numeric_limits<float>::quiet_NaN(),
-                            std::numeric_limits<float>::infinity()}) {
+  for (const float voxel :
+       {0.0f, -0.005f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
     auto bad_voxel = valid;
     bad_voxel.voxel_size = voxel;
     EXPECT_EQ(scene_from_message(bad_voxel, scene), "voxel_size must be finite and > 0") << voxel;
@@ -360,8 +360,15 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   ASSERT_TRUE(scene.view.has_value());
 
   // In process (InprocessPipeline, BaselinePipeline): the same scene without the wire, into a reused one.
-  const Frame decoded{.capture_utime = source.capture_utime, .width = source.width, .height = source.height,
-                      .fx = source.fx, .fy = source.fy, .cx = source.cx, .cy = source.cy, .depth_mm = {}, .color = {}};
+  const Frame decoded{.capture_utime = source.capture_utime,
+                      .width = source.width,
+                      .height = source.height,
+                      .fx = source.fx,
+                      .fy = source.fy,
+                      .cx = source.cx,
+                      .cy = source.cy,
+                      .depth_mm = {},
+                      .color = {}};
   Scene direct;
   direct.cloud.positions.assign(9, Eigen::Vector3f::Ones());  // a reused scene's old contents must go
   scene_from_cloud(cloud, decoded, source.seq, direct);

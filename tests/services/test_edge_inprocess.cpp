@@ -1,10 +1,9 @@
 // Edge-case scenes through the real mfot-inprocess executable: each scene is rendered, written as
 // a TUM RGB-D folder, run with capture.source tum, and judged by the poses.csv it writes.
 
-#include "../core/preprocess_test_scene.hpp"
-#include "mfot/service/tum_dataset.hpp"
-
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include <sys/wait.h>
-#include <unistd.h>
+#include "../core/preprocess_test_scene.hpp"
+#include "mfot/service/tum_dataset.hpp"
 
 namespace mfot::service {
 namespace {
@@ -56,9 +55,9 @@ struct PoseRow {
 
 struct RunResult {
   int exit_code = -1;
-  std::string output;           // stdout and stderr
-  std::vector<PoseRow> poses;   // poses.csv rows
-  std::int64_t frames = 0;      // frames the run reported
+  std::string output;          // stdout and stderr
+  std::vector<PoseRow> poses;  // poses.csv rows
+  std::int64_t frames = 0;     // frames the run reported
 };
 
 // Renders frames into a TUM folder.
@@ -118,7 +117,8 @@ RunResult run_inprocess(const TempFolder& temp, const std::string& folder) {
     PoseRow row;
     row.frame = std::stoll(cells[0]);
     row.id = std::stoi(cells[2]);
-    for (int i = 3; i <= 10; ++i) row.values.push_back(std::strtod(cells[static_cast<std::size_t>(i)].c_str(), nullptr));
+    for (int i = 3; i <= 10; ++i)
+      row.values.push_back(std::strtod(cells[static_cast<std::size_t>(i)].c_str(), nullptr));
     row.stale = cells[11] == "1";
     result.poses.push_back(row);
   }

@@ -1,11 +1,11 @@
 // Decodable but hostile messages: values that pass the wire format but would make a receiver
 // allocate without bound. The converters refuse them with the reason, before the core sees them.
 
-#include "mfot/service/convert.hpp"
-
 #include <gtest/gtest.h>
 
 #include <limits>
+
+#include "mfot/service/convert.hpp"
 
 namespace mfot::service {
 namespace {

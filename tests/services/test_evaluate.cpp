@@ -2,11 +2,6 @@
 // were made: ground truth against itself, known label and pose perturbations, the depth mask,
 // and bad inputs.
 
-#include "mfot/evaluate/evaluation.hpp"
-#include "mfot/service/run_writer.hpp"
-#include "mfot/evaluate/report.hpp"
-#include "mfot/service/image_io.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,6 +14,11 @@
 #include <random>
 #include <sstream>
 #include <tuple>
+
+#include "mfot/evaluate/evaluation.hpp"
+#include "mfot/evaluate/report.hpp"
+#include "mfot/service/image_io.hpp"
+#include "mfot/service/run_writer.hpp"
 
 namespace {
 
@@ -50,21 +50,30 @@ Eigen::Quaternionf axis_angle(float degrees, const Eigen::Vector3f& axis) {
 std::vector<Body> scene_bodies() {
   return {
       // Object 1 starts on the optical axis and only translates along x.
-      {1, false, {2, 2, 9, 9}, [](int t) {
+      {1,
+       false,
+       {2, 2, 9, 9},
+       [](int t) {
          Pose p;
          p.translation = Eigen::Vector3f(0.005f * t, 0.0f, 0.8f);
          p.rotation = axis_angle(17.0f, {1, 0, 0});
          return p;
        }},
       // Object 2 translates along y and turns about its own z axis.
-      {2, false, {20, 10, 29, 19}, [](int t) {
+      {2,
+       false,
+       {20, 10, 29, 19},
+       [](int t) {
          Pose p;
          p.translation = Eigen::Vector3f(0.1f, -0.05f + 0.003f * t, 0.9f);
          p.rotation = axis_angle(2.0f * t, {0, 0, 1}) * axis_angle(30.0f, {0, 1, 0});
          return p;
        }},
       // Object 3 never moves.
-      {3, false, {30, 24, 35, 27}, [](int) {
+      {3,
+       false,
+       {30, 24, 35, 27},
+       [](int) {
          Pose p;
          p.translation = Eigen::Vector3f(-0.2f, 0.1f, 1.1f);
          return p;
@@ -218,9 +227,7 @@ TEST(Evaluate, KnownPerturbationGivesExpectedNumbers) {
   EXPECT_EQ(run.mapping.at(7), 1);
   EXPECT_EQ(run.mapping.at(9), 2);
   for (const auto& f : run.frames) {
-    const double expected = f.frame == 4   ? (164.0 - 10.0) / 188.0
-                            : f.frame == 5 ? 164.0 / 194.0
-                                           : 164.0 / 188.0;
+    const double expected = f.frame == 4 ? (164.0 - 10.0) / 188.0 : f.frame == 5 ? 164.0 / 194.0 : 164.0 / 188.0;
     EXPECT_NEAR(f.accuracy, expected, 1e-12) << "frame " << f.frame;
   }
 
@@ -259,7 +266,8 @@ TEST(Evaluate, KnownPerturbationGivesExpectedNumbers) {
   std::ifstream segments(out / "perturbed_segments.csv");
   std::string line;
   std::getline(segments, line);
-  EXPECT_EQ(line, "groundtruth_id,predicted_id,mapped_groundtruth_id,points,share_of_points,share_of_groundtruth,frames");
+  EXPECT_EQ(line,
+            "groundtruth_id,predicted_id,mapped_groundtruth_id,points,share_of_points,share_of_groundtruth,frames");
   // (ground truth, predicted, mapped, points, frames) of each row; the shares are over all scene points (188 a
   // frame, and the 6 of frame 5) and over the ground-truth id's.
   std::vector<std::tuple<int, int, int, long, int>> rows;
@@ -454,18 +462,20 @@ TEST_F(EvaluateBadInput, MissingLabelDirectoryIsNamed) {
 }
 
 TEST_F(EvaluateBadInput, WrongFieldCountNamesFileAndLine) {
-  write_poses("frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
-              "0,1,1,0,0,1,0,0,0,1,0.9,0\n"
-              "1,2,1,0,0,1,0,0,0,1,0.9\n");
+  write_poses(
+      "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
+      "0,1,1,0,0,1,0,0,0,1,0.9,0\n"
+      "1,2,1,0,0,1,0,0,0,1,0.9\n");
   const auto message = evaluate();
   EXPECT_NE(message.find("poses.csv:3: expected 12 fields, got 11"), std::string::npos) << message;
 }
 
 TEST_F(EvaluateBadInput, NonNumberNamesFileLineAndColumn) {
-  write_poses("frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
-              "# comment lines and blank lines keep their line numbers\n"
-              "\n"
-              "0,1,1,abc,0,1,0,0,0,1,0.9,0\n");
+  write_poses(
+      "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
+      "# comment lines and blank lines keep their line numbers\n"
+      "\n"
+      "0,1,1,abc,0,1,0,0,0,1,0.9,0\n");
   const auto message = evaluate();
   EXPECT_NE(message.find("poses.csv:4: column 'x': 'abc'"), std::string::npos) << message;
 }
@@ -479,8 +489,9 @@ TEST_F(EvaluateBadInput, MissingColumnIsNamed) {
 TEST_F(EvaluateBadInput, NonUnitQuaternionAndDuplicatesAreRefused) {
   write_poses("frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n0,1,1,0,0,1,0,0,0,0,0.9,0\n");
   EXPECT_NE(evaluate().find("poses.csv:2: quaternion"), std::string::npos);
-  write_poses("frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
-              "0,1,1,0,0,1,0,0,0,1,0.9,0\n0,1,1,0,0,1,0,0,0,1,0.9,0\n");
+  write_poses(
+      "frame,utime,object_id,x,y,z,qx,qy,qz,qw,confidence,stale\n"
+      "0,1,1,0,0,1,0,0,0,1,0.9,0\n0,1,1,0,0,1,0,0,0,1,0.9,0\n");
   EXPECT_NE(evaluate().find("poses.csv:3: object 1 appears twice in frame 0"), std::string::npos);
 }
 

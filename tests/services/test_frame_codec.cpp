@@ -1,7 +1,3 @@
-#include "mfot/service/frame_codec.hpp"
-#include "mfot/service/depth_rvl.hpp"
-#include "mfot/service/image_io.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +7,10 @@
 #include <random>
 #include <string>
 #include <vector>
+
+#include "mfot/service/depth_rvl.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/image_io.hpp"
 
 namespace mfot::service {
 namespace {
@@ -154,8 +154,9 @@ TEST(FrameCodec, JpegStaysWithinToleranceAndQualityTradesSize) {
   double total = 0.0;
   int worst = 0;
   for (std::size_t i = 0; i < frame.color.size(); ++i) {
-    for (const auto& [a, b] : {std::pair{frame.color[i].r, decoded.color[i].r}, std::pair{frame.color[i].g, decoded.color[i].g},
-                              std::pair{frame.color[i].b, decoded.color[i].b}}) {
+    for (const auto& [a, b] :
+         {std::pair{frame.color[i].r, decoded.color[i].r}, std::pair{frame.color[i].g, decoded.color[i].g},
+          std::pair{frame.color[i].b, decoded.color[i].b}}) {
       const int d = std::abs(int{a} - int{b});
       total += d;
       worst = std::max(worst, d);
@@ -321,13 +322,15 @@ TEST(FrameCodec, RandomCorruptionNeverYieldsMisSizedFrames) {
   std::mt19937_64 generator(20240601);
   const Frame frame = make_frame(40, 30);
   int rejected = 0;
-  for (const auto& o : {options(DepthEncoding::kZlib, ColorEncoding::kJpeg), options(DepthEncoding::kZlib, ColorEncoding::kPng)}) {
+  for (const auto& o :
+       {options(DepthEncoding::kZlib, ColorEncoding::kJpeg), options(DepthEncoding::kZlib, ColorEncoding::kPng)}) {
     const frame_t good = encode_frame(frame, o, 0, "t", 0);
     for (int trial = 0; trial < 150; ++trial) {
       frame_t m = good;
       auto& target = trial % 2 == 0 ? m.depth_data : m.color_data;
       const int flips = 1 + static_cast<int>(generator() % 4);
-      for (int f = 0; f < flips; ++f) target[generator() % target.size()] ^= static_cast<std::uint8_t>(1 + generator() % 255);
+      for (int f = 0; f < flips; ++f)
+        target[generator() % target.size()] ^= static_cast<std::uint8_t>(1 + generator() % 255);
       if (trial % 3 == 0) target.resize(generator() % target.size());
       m.depth_size = static_cast<std::int32_t>(m.depth_data.size());
       m.color_size = static_cast<std::int32_t>(m.color_data.size());
@@ -361,8 +364,8 @@ TEST(DepthRvl, RoundTripsEveryValuePatternExactly) {
   depth.back() = 0;
   const auto packed = encode_depth_rvl(depth);
   EXPECT_EQ(decode_depth_rvl(packed.data(), packed.size(), depth.size()), depth);
-  for (const std::vector<std::uint16_t>& small : std::vector<std::vector<std::uint16_t>>{
-           {}, {0}, {1}, {65535}, {0, 0, 0}, {5, 5, 5}, {65535, 1, 65535, 0, 1}}) {
+  for (const std::vector<std::uint16_t>& small :
+       std::vector<std::vector<std::uint16_t>>{{}, {0}, {1}, {65535}, {0, 0, 0}, {5, 5, 5}, {65535, 1, 65535, 0, 1}}) {
     const auto bytes = encode_depth_rvl(small);
     EXPECT_EQ(decode_depth_rvl(bytes.data(), bytes.size(), small.size()), small);
   }
@@ -418,7 +421,8 @@ TEST(ImageIo, Png16AndRgbRoundTripInMemory) {
 TEST(ImageIo, FastAndSmallPngFilesHoldTheSamePixels) {
   // A label image: runs of a few values, as the merger writes every frame.
   Image16 labels{64, 48, std::vector<std::uint16_t>(64 * 48, 65535)};
-  for (int i = 0; i < 64 * 20; ++i) labels.pixels[static_cast<std::size_t>(700 + i)] = static_cast<std::uint16_t>(i % 3);
+  for (int i = 0; i < 64 * 20; ++i)
+    labels.pixels[static_cast<std::size_t>(700 + i)] = static_cast<std::uint16_t>(i % 3);
   const std::string path = ::testing::TempDir() + "/mfot_png_compression_test.png";
   for (const auto compression : {PngCompression::kSmall, PngCompression::kFast}) {
     write_png16(path, labels, compression);

@@ -1,13 +1,13 @@
 // The LCM URL every C++ service and client takes: the command line, then the process group's
 // $MFOT_LCM_URL, then LCM's own $LCM_DEFAULT_URL, then host-local multicast.
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <optional>
 #include <string>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::service {
 namespace {

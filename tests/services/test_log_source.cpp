@@ -1,20 +1,18 @@
 // Replay as a frame source: LcmLogSource reads a recorded log's MFOT_FRAME events as recorded,
 // and SourceReader hands them (and any source's frames, encoded on its thread) to the publisher.
 
-#include "mfot/capture/lcmlog_source.hpp"
-#include "mfot/capture/source_reader.hpp"
-#include "mfot/poses_t.hpp"
-#include "mfot/service/lcm_util.hpp"
-
-#include "encoded_message.hpp"
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
+#include "encoded_message.hpp"
+#include "mfot/capture/lcmlog_source.hpp"
+#include "mfot/capture/source_reader.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::capture {
 namespace {
@@ -22,7 +20,6 @@ namespace {
 namespace fs = std::filesystem;
 using service::testing::Bytes;
 using service::testing::encode;
-
 
 frame_t small_frame(std::int64_t seq) {
   service::Frame frame;
@@ -36,14 +33,16 @@ frame_t small_frame(std::int64_t seq) {
     frame.depth_mm.push_back(static_cast<std::uint16_t>(800 + i + seq));
     frame.color.push_back(Rgb8{static_cast<std::uint8_t>(10 * i), 20, 30});
   }
-  return service::encode_frame(frame, service::EncodeOptions{service::DepthEncoding::kRvl, service::ColorEncoding::kPng, 90, 1},
-                               seq, "sim:test", 5000 + seq);
+  return service::encode_frame(
+      frame, service::EncodeOptions{service::DepthEncoding::kRvl, service::ColorEncoding::kPng, 90, 1}, seq, "sim:test",
+      5000 + seq);
 }
 
 class LogFile {
  public:
-  LogFile() : path_(fs::temp_directory_path() / ("mfot_log_source_" + std::to_string(::getpid()) + "_" +
-                                                   testing::UnitTest::GetInstance()->current_test_info()->name())) {}
+  LogFile()
+      : path_(fs::temp_directory_path() / ("mfot_log_source_" + std::to_string(::getpid()) + "_" +
+                                           testing::UnitTest::GetInstance()->current_test_info()->name())) {}
   ~LogFile() {
     std::error_code error;
     fs::remove(path_, error);

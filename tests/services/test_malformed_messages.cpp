@@ -4,8 +4,18 @@
 // conversion the subscriber applies (decode_frame). Each malformed message must be
 // rejected and counted once in the MalformedCounter, and valid messages must still pass after it.
 
-#include "mfot/frame_t.hpp"
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "encoded_message.hpp"
 #include "mfot/frame_done_t.hpp"
+#include "mfot/frame_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/poses_t.hpp"
@@ -19,17 +29,6 @@
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
 
-#include "encoded_message.hpp"
-
-#include <gtest/gtest.h>
-
-#include <cmath>
-#include <cstdint>
-#include <cstring>
-#include <limits>
-#include <string>
-#include <vector>
-
 namespace mfot::service {
 namespace {
 
@@ -38,12 +37,12 @@ using testing::encode;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-
 // Overwrites the big-endian int32 at `offset` (LCM's wire order).
 void patch_int32(Bytes& bytes, std::size_t offset, std::int32_t value) {
   ASSERT_LE(offset + 4, bytes.size());
   const auto bits = static_cast<std::uint32_t>(value);
-  for (int i = 0; i < 4; ++i) bytes[offset + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(bits >> (24 - 8 * i));
+  for (int i = 0; i < 4; ++i)
+    bytes[offset + static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(bits >> (24 - 8 * i));
 }
 
 std::int32_t read_int32(const Bytes& bytes, std::size_t offset) {
@@ -273,7 +272,7 @@ frame_done_t make_frame_done(int claimed) {
 // Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order). Every type has
 // envelope_t (56 bytes) right after utime.
 constexpr std::size_t kEnvelope = 56;
-constexpr std::size_t kSceneNumPoints = 8 + 24 + kEnvelope + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
+constexpr std::size_t kSceneNumPoints = 8 + 24 + kEnvelope + 8 + 20 + 12 + 16;          // ... voxel_origin 12, plane 16
 constexpr std::size_t kModelNumPoints = 8 + 16 + kEnvelope + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
 constexpr std::size_t kPosesNumObjects = 8 + 24 + kEnvelope;
 constexpr std::size_t kFrameDoneNumObjects = 8 + 16 + kEnvelope;

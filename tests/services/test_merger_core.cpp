@@ -2,6 +2,12 @@
 // FrameAssembler (open frames, estimates, timeouts, re-sends) and MergerCore around
 // ObjectManager, driven with encoded messages and a clock moved by hand.
 
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "encoded_message.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/frame_assembler.hpp"
@@ -10,13 +16,6 @@
 #include "mfot/service/worker_pool.hpp"
 #include "mfot/tracker_estimate_t.hpp"
 #include "recording_merger_sink.hpp"
-
-#include "encoded_message.hpp"
-
-#include <gtest/gtest.h>
-
-#include <cmath>
-#include <limits>
 
 namespace mfot::service {
 namespace {
@@ -71,7 +70,8 @@ TEST(WorkerPool, ObjectsSpreadOverTheHostsOfTheGroup) {
   // Host b is lost (host a's workers keep heartbeating): its two objects are freed; host a's one
   // idle worker takes the first, the other waits for a worker.
   const std::map<std::int32_t, std::int32_t> held{{0, 1}, {1, 3}, {2, -1}};  // as assigned above
-  for (const auto& [id, object] : held) pool.heartbeat(beat(id, object, -1, 10 + id, "host-a"), kT0 + 1000ms, always_exists);
+  for (const auto& [id, object] : held)
+    pool.heartbeat(beat(id, object, -1, 10 + id, "host-a"), kT0 + 1000ms, always_exists);
   EXPECT_EQ(pool.expire(kT0 + 1500ms), (std::vector<std::int32_t>{500, 501}));
   const auto moved = pool.assign(objects, kT0 + 1500ms);
   ASSERT_EQ(moved.size(), 1u);
@@ -326,7 +326,6 @@ TEST_F(AssemblerTest, TheFirstFrameWaitsForTheExpectedWorkersUpToTheStartupTimeo
 using testing::Bytes;
 using testing::encode;
 
-
 // A 12 x 12 x 2 block of 5 mm voxels around (x, 0, 0.9), one cluster.
 scene_cloud_t block_scene(std::int64_t seq, float x) {
   scene_cloud_t msg{};
@@ -488,8 +487,10 @@ TEST_F(MergerCoreTest, EachModelCarriesWhatTheOtherObjectsClaimNearIt) {
       // The other block's columns within 6.2 cm of this block's box (9 of its 12), camera frame.
       EXPECT_EQ(model.claimed.size(), 9u * 12u * 2u);
       for (const Eigen::Vector3f& p : model.claimed) {
-        if (model.object_id == 1) EXPECT_GT(p.x(), 0.07f);
-        else EXPECT_LT(p.x(), 0.06f);
+        if (model.object_id == 1)
+          EXPECT_GT(p.x(), 0.07f);
+        else
+          EXPECT_LT(p.x(), 0.06f);
       }
     }
   }
@@ -691,11 +692,11 @@ TEST_F(MergerCoreTest, ARestartedMergerResumesTheObjectsItsWorkersHoldWithTheirI
   restarted.deliver(&MergerCore::on_model_report, report_of(core.manager().objects().at(2), owner_of_2, 0));
   EXPECT_EQ(malformed.total(), 0);
   EXPECT_EQ(restarted.core.resumer().resumed(), 2);
-  clock.advance(100ms);  // listen over, nothing pending
+  clock.advance(100ms);                 // listen over, nothing pending
   EXPECT_EQ(restarted.core.step(), 0);  // frame 1 waits for its owners' estimates now
   for (const std::int32_t id : {1, 2}) {
-    restarted.deliver(&MergerCore::on_estimate, estimate_of(1, id, id == 1 ? owner_of_1 : owner_of_2,
-                                                            core.manager().objects().at(id).pose));
+    restarted.deliver(&MergerCore::on_estimate,
+                      estimate_of(1, id, id == 1 ? owner_of_1 : owner_of_2, core.manager().objects().at(id).pose));
   }
   EXPECT_EQ(restarted.core.step(), 1);
   ASSERT_EQ(restarted.sink.frames.size(), 1u);
@@ -756,7 +757,7 @@ TEST_F(MergerCoreTest, AForgedHeartbeatOrReportCannotMakeARestartedMergerAdoptAn
   object_model_t empty = report_of(fake, 7, 0);
   empty.num_points = 0;
   empty.x.clear(), empty.y.clear(), empty.z.clear(), empty.r.clear(), empty.g.clear(), empty.b.clear();
-  restarted.deliver(&MergerCore::on_model_report, empty);             // no model
+  restarted.deliver(&MergerCore::on_model_report, empty);                  // no model
   restarted.deliver(&MergerCore::on_model_report, report_of(fake, 6, 0));  // not the worker asked
   fake.id = 3;
   restarted.deliver(&MergerCore::on_model_report, report_of(fake, 7, 0));  // not asked for
@@ -771,7 +772,7 @@ TEST_F(MergerCoreTest, AForgedHeartbeatOrReportCannotMakeARestartedMergerAdoptAn
   EXPECT_EQ(restarted.core.step(), 0);
   clock.advance(501ms);
   EXPECT_EQ(restarted.core.step(), 1);  // object 1 is born, and goes to the idle worker 7
-  clock.advance(300ms);                  // its model had time to arrive
+  clock.advance(300ms);                 // its model had time to arrive
   restarted.deliver(&MergerCore::on_heartbeat, heartbeat_of(7, 2, 0));
   // The two out of range were dropped at the boundary (counted above), never heard: only 2, after its request.
   ASSERT_EQ(restarted.sink.retirements.size(), 1u);

@@ -1,10 +1,8 @@
 // A folder of organised PCD files as a frame source: natural name order, depth and colour from the
 // cloud, intrinsics fitted to it, and every kind of unusable file skipped with its name.
 
-#include "mfot/capture/capture_settings.hpp"
-#include "mfot/capture/pcd_source.hpp"
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -12,7 +10,8 @@
 #include <sstream>
 #include <string>
 
-#include <unistd.h>
+#include "mfot/capture/capture_settings.hpp"
+#include "mfot/capture/pcd_source.hpp"
 
 namespace mfot::capture {
 namespace {
@@ -24,8 +23,9 @@ constexpr int kWidth = 8, kHeight = 6;
 
 class PcdFolder {
  public:
-  PcdFolder() : path_(fs::temp_directory_path() / ("mfot_pcd_" + std::to_string(::getpid()) + "_" +
-                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
+  PcdFolder()
+      : path_(fs::temp_directory_path() / ("mfot_pcd_" + std::to_string(::getpid()) + "_" +
+                                           ::testing::UnitTest::GetInstance()->current_test_info()->name())) {
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
@@ -58,8 +58,8 @@ std::string organised_pcd(float base, int height = kHeight, bool nan_everywhere 
       }
       const float z = base + 0.01f * static_cast<float>(u) + 0.02f * static_cast<float>(v);
       const float x = (static_cast<float>(u) - kCx) * z / kFx, y = (static_cast<float>(v) - kCy) * z / kFy;
-      const std::uint32_t rgba = (255u << 24) | (static_cast<std::uint32_t>(10 * u) << 16) |
-                                 (static_cast<std::uint32_t>(20 * v) << 8) | 7u;
+      const std::uint32_t rgba =
+          (255u << 24) | (static_cast<std::uint32_t>(10 * u) << 16) | (static_cast<std::uint32_t>(20 * v) << 8) | 7u;
       out.precision(9);
       out << x << ' ' << y << ' ' << z << ' ' << rgba << '\n';
     }
@@ -103,13 +103,14 @@ TEST(PcdFolderSource, SkipsEveryUnusableFileNamingItAndGoesOn) {
   PcdFolder folder;
   folder.write("a1.pcd", organised_pcd(0.7f));
   const std::string good = organised_pcd(0.9f);
-  folder.write("a2.pcd", good.substr(0, good.size() / 2));                   // truncated
-  folder.write("a3.pcd", organised_pcd(0.9f, 1));                             // unorganised (one row)
-  folder.write("a4.pcd", "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                         "WIDTH 2\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ascii\n"
-                         "0 0 1\n0 0 1\n0 0 1\n0 0 1\n");                     // no colour
-  folder.write("a5.pcd", organised_pcd(0.9f, kHeight, true));                // NaN everywhere
-  folder.write("a6.pcd", "garbage\n");                                        // not a PCD
+  folder.write("a2.pcd", good.substr(0, good.size() / 2));  // truncated
+  folder.write("a3.pcd", organised_pcd(0.9f, 1));           // unorganised (one row)
+  folder.write("a4.pcd",
+               "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+               "WIDTH 2\nHEIGHT 2\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ascii\n"
+               "0 0 1\n0 0 1\n0 0 1\n0 0 1\n");                // no colour
+  folder.write("a5.pcd", organised_pcd(0.9f, kHeight, true));  // NaN everywhere
+  folder.write("a6.pcd", "garbage\n");                         // not a PCD
   folder.write("a7.pcd", organised_pcd(1.1f, kHeight, false, "rgb"));
   PcdFolderSource source(folder.str(), 1.0 / 30.0, 0);
   auto item = source.next();

@@ -1,9 +1,9 @@
-#include "mfot/service/tracker_scene_queue.hpp"
-
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <stdexcept>
+
+#include "mfot/service/tracker_scene_queue.hpp"
 
 namespace mfot::service {
 namespace {

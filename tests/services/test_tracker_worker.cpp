@@ -2,6 +2,12 @@
 // the same estimates as driving the filter and the step by hand, a grid only for a new model
 // version, and the worker's handlers fed encoded messages.
 
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <vector>
+
 #include "../core/synthetic_object.hpp"
 #include "encoded_message.hpp"
 #include "mfot/frame_done_t.hpp"
@@ -10,12 +16,6 @@
 #include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/object_tracker.hpp"
 #include "mfot/service/tracker_worker.hpp"
-
-#include <gtest/gtest.h>
-
-#include <chrono>
-#include <cmath>
-#include <vector>
 
 namespace mfot::service {
 namespace {
@@ -141,7 +141,8 @@ class RecordingTrackerSink : public TrackerSink {
   std::vector<std::string> notes;
 };
 
-object_model_t model_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance, std::int64_t frame_seq) {
+object_model_t model_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance,
+                         std::int64_t frame_seq) {
   object_model_t msg{};
   msg.frame_seq = frame_seq;
   msg.object_id = object_id;
@@ -297,7 +298,8 @@ TEST_F(TrackerWorkerTest, ACarriedModelMovesTheFilterAndHoldsAreReported) {
   ASSERT_EQ(worker.step(), 1);
   ASSERT_EQ(sink.estimates.size(), 2u);
   EXPECT_TRUE(sink.estimates[1].held);
-  EXPECT_LT((Eigen::Vector3f(static_cast<float>(sink.estimates[1].position[0]), static_cast<float>(sink.estimates[1].position[1]),
+  EXPECT_LT((Eigen::Vector3f(static_cast<float>(sink.estimates[1].position[0]),
+                             static_cast<float>(sink.estimates[1].position[1]),
                              static_cast<float>(sink.estimates[1].position[2])) -
              away.translation)
                 .norm(),
@@ -330,10 +332,10 @@ TEST_F(TrackerWorkerTest, MalformedModelsAndScenesAreCountedAndTheWorkerGoesOn) 
   EXPECT_EQ(worker.step(), 1);
 }
 
-
 // ---- the frame's end (frame_done_t) ---------------------------------------------------------------
 
-frame_done_object_t entry_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance, std::int32_t version) {
+frame_done_object_t entry_for(std::int32_t object_id, std::int32_t worker_id, std::int64_t instance,
+                              std::int32_t version) {
   frame_done_object_t e{};
   e.object_id = object_id;
   e.worker_id = worker_id;

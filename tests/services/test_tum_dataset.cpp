@@ -1,13 +1,12 @@
-#include "mfot/service/tum_dataset.hpp"
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
+#include "mfot/service/tum_dataset.hpp"
 
 namespace mfot::service {
 namespace {
@@ -28,7 +27,9 @@ class TempFolder {
     std::error_code error;
     fs::remove_all(path_, error);
   }
-  std::string str(const std::string& child = "") const { return child.empty() ? path_.string() : (path_ / child).string(); }
+  std::string str(const std::string& child = "") const {
+    return child.empty() ? path_.string() : (path_ / child).string();
+  }
 
  private:
   fs::path path_;

@@ -1,12 +1,12 @@
 // The Preprocessor on the simulator's frames gives the same scene, bit for bit, for any thread
 // count (fixed placement of the pieces' outputs, integer counts, an order-free union-find).
 
-#include "mfot/preprocessing.hpp"
-#include "mfot/sim/simulator.hpp"
-
 #include <gtest/gtest.h>
 
 #include <vector>
+
+#include "mfot/preprocessing.hpp"
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot {
 namespace {

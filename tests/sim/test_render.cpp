@@ -1,12 +1,12 @@
 // Ray caster and sensor model: exact geometry against hand-computed intersections, label image
 // against geometry, noise statistics against the model.
 
-#include "mfot/sim/scene.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "mfot/sim/scene.hpp"
 
 namespace mfot::sim {
 namespace {
@@ -202,8 +202,8 @@ TEST(RenderScene, GrazingSurfacesLoseDepth) {
   for (const float tilt_deg : {70.0f, 85.0f}) {
     // Plane through (0, 0, 1) whose normal makes tilt_deg with the central ray, facing the camera.
     Plane plane = facing_plane(1.0f);
-    plane.pose.rotation = Eigen::Quaternionf(Eigen::AngleAxisf(tilt_deg * kPi / 180.0f, Eigen::Vector3f::UnitY())) *
-                          plane.pose.rotation;
+    plane.pose.rotation =
+        Eigen::Quaternionf(Eigen::AngleAxisf(tilt_deg * kPi / 180.0f, Eigen::Vector3f::UnitY())) * plane.pose.rotation;
     Scene scene;
     scene.planes.push_back(plane);
     const RenderedFrame noisy = render_scene(scene, cam, SensorOptions{}, 9);
@@ -233,7 +233,8 @@ TEST(RenderScene, FarSideOfDepthEdgesLosesDepth) {
       int distance = 99;
       for (int dv = -4; dv <= 4; ++dv) {
         for (int du = -4; du <= 4; ++du) {
-          if (exact.labels[at(cam, u + du, v + dv)] == 1) distance = std::min(distance, std::max(std::abs(du), std::abs(dv)));
+          if (exact.labels[at(cam, u + du, v + dv)] == 1)
+            distance = std::min(distance, std::max(std::abs(du), std::abs(dv)));
         }
       }
       const bool missing = noisy.depth_mm[at(cam, u, v)] == 0;

@@ -1,14 +1,14 @@
 // Scenarios and the Simulator: determinism, frame counts, separation and visibility at frame 0,
 // physically plausible motion (speed limits, no interpenetration, rigid grasps).
 
-#include "mfot/sim/simulator.hpp"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
+
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot::sim {
 namespace {
@@ -47,7 +47,7 @@ bool hands_free(const std::string& name) {
 }
 // Peak turn rates: hand manipulation at most 90 deg/s; spin and tumble turn objects at up to
 // 180 deg/s by design (the margin covers the per-frame measurement).
-constexpr float kHandTurnLimit = 90.0f * kDeg;         // rad/s
+constexpr float kHandTurnLimit = 90.0f * kDeg;           // rad/s
 constexpr float kFastRotationTurnLimit = 190.0f * kDeg;  // rad/s: spin, tumble
 float turn_limit(const std::string& name) {
   return name == "spin" || name == "tumble" || name == "procedural" ? kFastRotationTurnLimit : kHandTurnLimit;
@@ -128,7 +128,8 @@ TEST(Simulator, RandomScenarioFollowsItsOptions) {
   EXPECT_TRUE(hand_seen);
 
   const Simulator other(options_for("random", 4));
-  EXPECT_FALSE(other.poses(0)[0].pose.translation.isApprox(Simulator(options_for("random", 3)).poses(0)[0].pose.translation));
+  EXPECT_FALSE(
+      other.poses(0)[0].pose.translation.isApprox(Simulator(options_for("random", 3)).poses(0)[0].pose.translation));
 }
 
 // Frame 0 of every scenario (the seeded scenes for several seeds): every object is visible, and
@@ -202,9 +203,10 @@ TEST(Simulator, MotionIsPhysicallyPlausible) {
         for (std::size_t b = 0; b < bodies.size(); ++b) {
           const float speed = (world[b].translation() - prev[b].translation()).norm() * 30.0f;
           const float turn = Eigen::AngleAxisf(prev[b].rotation().transpose() * world[b].rotation()).angle() * 30.0f;
-          ASSERT_LE(speed, 0.3f) << name << " seed " << o.scenario.seed << " frame " << frame << " body " << bodies[b].id;
-          ASSERT_LE(turn, turn_limit(name)) << name << " seed " << o.scenario.seed << " frame " << frame << " body "
-                                            << bodies[b].id;
+          ASSERT_LE(speed, 0.3f) << name << " seed " << o.scenario.seed << " frame " << frame << " body "
+                                 << bodies[b].id;
+          ASSERT_LE(turn, turn_limit(name))
+              << name << " seed " << o.scenario.seed << " frame " << frame << " body " << bodies[b].id;
           // An object that moves is carried by a hand rigidly (hands-free scenarios: moves by itself).
           const bool moved = !world[b].isApprox(prev[b], 1e-5f);
           if (moved && !bodies[b].is_hand && !hands_free(name)) {
@@ -403,9 +405,11 @@ TEST(Simulator, SlideTurnsAndTouchesTheOtherBox) {
     int run = 0, longest = 0;
     for (int frame = 0; frame < sim.num_frames(); ++frame) {
       const auto world = world_poses(sim, frame);
-      largest_turn = std::max(largest_turn, Eigen::AngleAxisf(Eigen::Matrix3f(world[0].rotation() * start.transpose())).angle());
+      largest_turn =
+          std::max(largest_turn, Eigen::AngleAxisf(Eigen::Matrix3f(world[0].rotation() * start.transpose())).angle());
       float closest = 1e9f;
-      for (const Eigen::Vector3f& p : volume_samples(mover, world[0])) closest = std::min(closest, distance_to_box(anchor, world[1], p));
+      for (const Eigen::Vector3f& p : volume_samples(mover, world[0]))
+        closest = std::min(closest, distance_to_box(anchor, world[1], p));
       run = closest <= 0.001f ? run + 1 : 0;
       longest = std::max(longest, run);
     }
@@ -439,7 +443,8 @@ TEST(Simulator, RotationScenariosVaryWithTheSeed) {
   for (const std::string& name : kRotationScenarios) {
     const Simulator a(options_for(name, 1)), b(options_for(name, 2)), c(options_for(name, 3));
     const int middle = std::min({a.num_frames(), b.num_frames(), c.num_frames()}) / 2;
-    const Eigen::Isometry3f pa = world_poses(a, middle)[0], pb = world_poses(b, middle)[0], pc = world_poses(c, middle)[0];
+    const Eigen::Isometry3f pa = world_poses(a, middle)[0], pb = world_poses(b, middle)[0],
+                            pc = world_poses(c, middle)[0];
     EXPECT_FALSE(pa.isApprox(pb, 1e-3f)) << name;
     EXPECT_FALSE(pb.isApprox(pc, 1e-3f)) << name;
     EXPECT_FALSE(pa.isApprox(pc, 1e-3f)) << name;

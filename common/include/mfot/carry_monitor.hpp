@@ -44,8 +44,6 @@
 //      pose is not known: the carried one is only as right as the gripper's estimated turn).
 // Deterministic, no draws. Non-copyable: it owns the watches.
 
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -55,23 +53,25 @@
 #include <utility>
 #include <vector>
 
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 // Member defaults: off (the thesis); the merger and mfot-inprocess fill every field from
 // configs/default.yaml (merger.carry).
 struct CarryOptions {
-  int frames = 0;                   // [0, 10000]; 0 = off
-  float translation = 0.03f;        // metres (0, 0.5]: a hand's estimate wobbles by a centimetre or two
-  float rotation_deg = 15.f;        // (0, 90]
-  float min_motion = 0.03f;         // metres (0, 1]
-  float min_turn_deg = 10.f;        // (0, 180]
-  float contact_distance = 0.02f;   // the caller's touch test: model points this close, metres (0, 0.1]
-  float seen_through_share = 0.f;   // [0, 1] where it is held; 0 = steps 4-6 off
+  int frames = 0;                            // [0, 10000]; 0 = off
+  float translation = 0.03f;                 // metres (0, 0.5]: a hand's estimate wobbles by a centimetre or two
+  float rotation_deg = 15.f;                 // (0, 90]
+  float min_motion = 0.03f;                  // metres (0, 1]
+  float min_turn_deg = 10.f;                 // (0, 180]
+  float contact_distance = 0.02f;            // the caller's touch test: model points this close, metres (0, 0.1]
+  float seen_through_share = 0.f;            // [0, 1] where it is held; 0 = steps 4-6 off
   float carried_seen_through_share = 0.05f;  // [0, 1] where the neighbour would carry it
   // Step 6: an object gripped away while hidden goes with the gripper (kCarry) or is retired (kRetire).
   enum class GrippedAway { kCarry, kRetire };
   GrippedAway gripped_away = GrippedAway::kCarry;
-  void validate() const;            // throws std::invalid_argument naming the field
+  void validate() const;  // throws std::invalid_argument naming the field
 };
 
 class CarryMonitor {
@@ -84,7 +84,7 @@ class CarryMonitor {
   struct Carried {
     std::int32_t id = 0;
     std::int32_t carrier = 0;
-    Pose pose;            // where the carrier's motion put it
+    Pose pose;                  // where the carrier's motion put it
     bool gripped_away = false;  // by steps 5-6 (gripped while hidden); with kRetire, pose is where it is held
   };
   using TouchTest = std::function<bool(std::int32_t, std::int32_t)>;
@@ -131,12 +131,13 @@ class CarryMonitor {
   void observe(const Object& object, const Object& neighbour);
   void observe_hidden(const Object& object, const Object& neighbour);
   // Step 2: the carrier among objects of the hidden object (nullptr: none) and the relative pose it carries.
-  const Object* watched_carrier(const Object& object, std::span<const Object> objects, Eigen::Isometry3f& relative) const;
+  const Object* watched_carrier(const Object& object, std::span<const Object> objects,
+                                Eigen::Isometry3f& relative) const;
   // Step 5's candidate neighbour (nullptr: none) and its hidden watch.
   const Object* gripping_carrier(const Object& object, std::span<const Object> objects, HiddenWatch** watch);
 
   CarryOptions options_;
-  std::map<std::pair<std::int32_t, std::int32_t>, Watch> watches_;  // (object, neighbour)
+  std::map<std::pair<std::int32_t, std::int32_t>, Watch> watches_;               // (object, neighbour)
   std::map<std::pair<std::int32_t, std::int32_t>, HiddenWatch> hidden_watches_;  // (hidden object, neighbour)
   std::vector<Carried> carried_;
 };

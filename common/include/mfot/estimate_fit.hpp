@@ -6,12 +6,11 @@
 // within a distance), with the colour of the SMR feature (3.2.1) on top, so a box turned onto
 // another face of the same outline is not explained either.
 
+#include <Eigen/Geometry>
+#include <vector>
+
 #include "mfot/likelihood.hpp"
 #include "mfot/spatial_hash.hpp"
-
-#include <Eigen/Geometry>
-
-#include <vector>
 
 namespace mfot {
 

@@ -1,9 +1,9 @@
 #pragma once
 // Hypothesis-data selection, thesis 3.3: the points of Z_t near the last estimate X_{t-1} (x) M_{t-1}.
 
-#include "mfot/likelihood.hpp"
-
 #include <Eigen/Geometry>
+
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -32,7 +32,7 @@ void select_hypothesis_points(const ColoredCloud& scene, const Eigen::AlignedBox
 
 // Convenience overload computing the model's bounding box.
 void select_hypothesis_data(const ColoredCloud& scene, std::span<const SmrFeature> scene_features,
-                            const ObjectModel& model, const Pose& last_estimate,
-                            const HypothesisOptions& options, HypothesisData& out);
+                            const ObjectModel& model, const Pose& last_estimate, const HypothesisOptions& options,
+                            HypothesisData& out);
 
 }  // namespace mfot

@@ -11,23 +11,23 @@
 // and the points other objects claim are removed (a finger gripping the object would otherwise pair
 // with the face beneath it), and holds the filter where too few are left (hold_min_scored_share).
 
-#include "mfot/smr_feature.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <array>
 #include <cstddef>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 // Member defaults: for library users and unit tests; the services fill every field from
 // configs/default.yaml (tracker.icp_*).
 struct IcpRefinementOptions {
-  int iterations = 0;             // [0, 50]; 0 = off (the estimate stays)
-  float max_distance = 0.01f;     // a scene point pairs with the nearest model point this close, metres (0, 0.1]
+  int iterations = 0;          // [0, 50]; 0 = off (the estimate stays)
+  float max_distance = 0.01f;  // a scene point pairs with the nearest model point this close, metres (0, 0.1]
   // With fewer of the scene points paired than this share, the estimate stays: too little of the
   // object is seen, or the estimate is too far off for local pairs. [0, 1]
   float min_paired_share = 0.5f;
@@ -47,7 +47,8 @@ struct IcpRefinementOptions {
   int final_points = 400;
   // The pairs of the object's first-view points (see refine's step 1) weigh this much in the fit, the
   // points grown since 1: where the first view shows, it holds the object's frame, which the pose error
-  // of each growth would otherwise shift (docs/experiment-log.md "Anchored on the first view"). [1, 1000]; 1 = all alike.
+  // of each growth would otherwise shift (docs/experiment-log.md "Anchored on the first view"). [1, 1000]; 1 = all
+  // alike.
   float anchor_weight = 1.f;
   // Colour in the pairing (coloured ICP, in the spirit of Park et al. 2017 and PCL's GICP6D): where both the
   // scene and the model give their points' SMR features, a scene point pairs, among the model points within
@@ -62,10 +63,10 @@ struct IcpRefinementOptions {
 };
 
 struct IcpResult {
-  Pose pose;                  // refined, or the start pose when not refined
+  Pose pose;  // refined, or the start pose when not refined
   bool refined = false;
-  std::size_t paired = 0;     // sampled scene points paired in the last iteration run
-  std::size_t sampled = 0;    // scene points taking part in the last iteration run (at most max_points, or final_points)
+  std::size_t paired = 0;   // sampled scene points paired in the last iteration run
+  std::size_t sampled = 0;  // scene points taking part in the last iteration run (at most max_points, or final_points)
 };
 
 // Steps of refine():
@@ -132,8 +133,8 @@ class IcpRefinement {
   bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
                Eigen::Isometry3f& pose, IcpResult& result);
 
-  std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
-  bool colored_ = false;                 // this call pairs in colour and space (use_colors)
+  std::vector<Eigen::Vector3f> sample_;                     // the scene points of the iterations running
+  bool colored_ = false;                                    // this call pairs in colour and space (use_colors)
   std::vector<std::array<float, kSmrBins>> model_colors_;   // dense SMR per model point, when colored_
   std::vector<std::array<float, kSmrBins>> scene_colors_;   // ... per scene point of the call
   std::vector<std::array<float, kSmrBins>> sample_colors_;  // ... per sample point

@@ -3,22 +3,21 @@
 // detection of clusters no tracked object explains (new objects) and of objects that lost
 // their support in the segmentation (objects to retire).
 
-#include "mfot/spatial_hash.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
+
+#include "mfot/spatial_hash.hpp"
 
 namespace mfot {
 
 // ---- Euclidean clustering ----------------------------------------------------------------------
 
 struct EuclideanClusterOptions {
-  float tolerance = 0.010f;            // metres, (0, 1]: points closer than this are connected
-  std::size_t min_cluster_size = 30;   // >= 1: smaller clusters are dropped (no size is too large)
+  float tolerance = 0.010f;           // metres, (0, 1]: points closer than this are connected
+  std::size_t min_cluster_size = 30;  // >= 1: smaller clusters are dropped (no size is too large)
   void validate() const;
 };
 
@@ -81,9 +80,9 @@ struct NewObjectOptions {
 class NewObjectDetector {
  public:
   struct Candidate {
-    std::uint64_t key = 0;            // stable over the candidate's life, increasing with creation
-    int frames = 0;                   // consecutive frames seen
-    int cluster = -1;                 // cluster index in the latest frame
+    std::uint64_t key = 0;                // stable over the candidate's life, increasing with creation
+    int frames = 0;                       // consecutive frames seen
+    int cluster = -1;                     // cluster index in the latest frame
     std::vector<Eigen::Vector3f> points;  // its points in the latest frame, camera frame
   };
 

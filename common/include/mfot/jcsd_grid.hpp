@@ -1,13 +1,13 @@
 #pragma once
 // Joint Color-Spatial Descriptor grid, thesis 3.2.2-3.2.3, Algorithm 3, equation 3.12.
 
-#include "mfot/smr_feature.hpp"
-#include "mfot/types.hpp"
-
 #include <array>
 #include <cstddef>
 #include <span>
 #include <vector>
+
+#include "mfot/smr_feature.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -51,9 +51,8 @@ inline constexpr std::size_t kJcsdMaxCorners = std::size_t{1} << 24;
 // box padded by padding_cells on every side. O(n) in the number of points. An empty point set
 // gives an empty grid. positions and features must have the same length; throws
 // std::invalid_argument when the grid would exceed kJcsdMaxCorners.
-JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions,
-                         std::span<const SmrFeature> features, const JcsdGridOptions& options = {},
-                         JcsdBuildStats* stats = nullptr);
+JcsdGrid build_jcsd_grid(std::span<const Eigen::Vector3f> positions, std::span<const SmrFeature> features,
+                         const JcsdGridOptions& options = {}, JcsdBuildStats* stats = nullptr);
 JcsdGrid build_jcsd_grid(const ObjectModel& model, const JcsdGridOptions& options = {},
                          JcsdBuildStats* stats = nullptr);
 

@@ -1,12 +1,12 @@
 #pragma once
 // JCSD hypothesis evaluation on the CPU, thesis 3.3, equations 3.18 to 3.20.
 
-#include "mfot/jcsd_grid.hpp"
-#include "mfot/likelihood.hpp"
-
 #include <cstdint>
 #include <memory>
 #include <vector>
+
+#include "mfot/jcsd_grid.hpp"
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -44,8 +44,7 @@ class JcsdLikelihood final : public Likelihood {
   void set_grid(JcsdGrid grid);
   const JcsdGrid& grid() const { return grid_; }
 
-  void evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                std::span<float> scores) override;
+  void evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) override;
 
  private:
   class WorkerPool;

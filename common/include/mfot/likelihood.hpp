@@ -2,21 +2,21 @@
 // The hypothesis-evaluation interface shared by every likelihood backend (thesis 3.3 for JCSD,
 // 2.3.2 / equations 2.18-2.21 for the point-to-point baseline of [CC13]).
 
-#include "mfot/smr_feature.hpp"
-#include "mfot/types.hpp"
-
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "mfot/smr_feature.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 // An object model: coloured points in the object frame and their SMR features.
 struct ObjectModel {
-  ColoredCloud cloud;                 // object frame, metres
-  std::vector<SmrFeature> features;   // one per point
+  ColoredCloud cloud;                // object frame, metres
+  std::vector<SmrFeature> features;  // one per point
 };
 
 // Hypothesis data Z' (thesis 3.3): the scene points near the last estimate, camera frame.
@@ -35,8 +35,7 @@ class Likelihood {
   // Replaces the model (object frame); builds whatever the backend needs (grid, k-d tree, upload).
   virtual void set_model(const ObjectModel& model) = 0;
   // particles: object->camera poses. scores.size() == particles.size().
-  virtual void evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                        std::span<float> scores) = 0;
+  virtual void evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) = 0;
 };
 
 // Likelihood weights from raw particle scores, equation 3.21:

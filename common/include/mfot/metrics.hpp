@@ -3,22 +3,22 @@
 // segmentation accuracy (4.3, PMOTA of [KLK14]) and, where ground-truth poses exist (the
 // simulator), the relative pose error of every object.
 
-#include "mfot/occlusion.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <map>
 #include <span>
 #include <utility>
 #include <vector>
 
+#include "mfot/occlusion.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 // ---- fitting distance ------------------------------------------------------------------------
 
 struct FittingDistanceOptions {
-  bool occlusion_test = true;       // false: plain average nearest-neighbour distance
+  bool occlusion_test = true;  // false: plain average nearest-neighbour distance
   // Half-angle of the viewing cone around a model point's camera ray, as a tangent (distance
   // in the normalised image plane x/z, y/z), (0, 0.1]. 0.006 is ~3.4 px at fx = 570, a little
   // more than the angular spacing of 5 mm voxels at 1 m, so a surface in front always has a
@@ -90,10 +90,10 @@ class SegmentationAccuracy {
 
   std::size_t frames() const { return frame_pairs_.size(); }
   std::size_t points() const { return total_points_; }
-  double accuracy() const;                            // 1 for an empty sequence
-  std::vector<double> frame_accuracies() const;       // with the sequence-wide mapping
+  double accuracy() const;                               // 1 for an empty sequence
+  std::vector<double> frame_accuracies() const;          // with the sequence-wide mapping
   std::map<std::int32_t, std::int32_t> mapping() const;  // predicted id -> ground-truth id
-  std::vector<Overlap> overlaps() const;              // every pair seen, by (predicted, ground truth)
+  std::vector<Overlap> overlaps() const;                 // every pair seen, by (predicted, ground truth)
 
  private:
   using Pair = std::pair<std::int32_t, std::int32_t>;  // (predicted, ground truth)
@@ -106,7 +106,7 @@ class SegmentationAccuracy {
 // ---- relative pose error ---------------------------------------------------------------------
 
 struct PoseError {
-  double translation_mm = 0.0;            // displacement error at the object's centre (see below)
+  double translation_mm = 0.0;  // displacement error at the object's centre (see below)
   double rotation_deg = 0.0;
   double translation_at_camera_mm = 0.0;  // |t_pred - t_gt| of the motions (the literal reading)
   // For a shape symmetric about an axis (a can), rotation about that axis is unobservable from
@@ -153,19 +153,19 @@ PoseErrorSummary summarize(std::span<const PoseError> errors, const PoseErrorSum
 // al.'s OSD and Stein et al.'s LCCP evaluation): a segment is found when one object overlaps it with
 // IoU >= found_iou; WOv is the segment-size-weighted best IoU.
 struct SegmentMatchOptions {
-  double found_iou = 0.5;     // (0, 1]
-  double part_share = 0.2;    // an object holding at least this share of a segment holds a part of it, (0, 0.5]
-  void validate() const;      // throws std::invalid_argument naming the field
+  double found_iou = 0.5;   // (0, 1]
+  double part_share = 0.2;  // an object holding at least this share of a segment holds a part of it, (0, 0.5]
+  void validate() const;    // throws std::invalid_argument naming the field
 };
 
 struct SegmentMatch {
-  std::size_t segments = 0;   // ground-truth segments (labels != 0)
-  std::size_t objects = 0;    // predicted objects (labels != 0)
-  std::size_t found = 0;      // segments with an object of IoU >= found_iou
+  std::size_t segments = 0;       // ground-truth segments (labels != 0)
+  std::size_t objects = 0;        // predicted objects (labels != 0)
+  std::size_t found = 0;          // segments with an object of IoU >= found_iou
   double weighted_overlap = 0.0;  // WOv: sum over segments of size x best IoU / sum of sizes; 1 with no segment
-  std::size_t merged = 0;     // segments whose largest object also holds most of another segment
-  std::size_t split = 0;      // segments at least two objects each hold part_share of
-  std::size_t spurious = 0;   // objects with most of their points on background (truth 0)
+  std::size_t merged = 0;         // segments whose largest object also holds most of another segment
+  std::size_t split = 0;          // segments at least two objects each hold part_share of
+  std::size_t spurious = 0;       // objects with most of their points on background (truth 0)
 };
 
 // truth / predicted: one label per point (0 = background / no object), same length (else

@@ -5,23 +5,23 @@
 // A departure from the thesis, which has no re-identification. The score is the JCSD likelihood
 // (thesis 3.3, equations 3.18 to 3.20) that tracks the object; the check is EstimateFit.
 
-#include "mfot/estimate_fit.hpp"
-#include "mfot/jcsd_likelihood.hpp"
-#include "mfot/likelihood.hpp"
-
 #include <cstdint>
 #include <optional>
 #include <vector>
+
+#include "mfot/estimate_fit.hpp"
+#include "mfot/jcsd_likelihood.hpp"
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
 // Member defaults: for library users and unit tests; the merger fills every field from
 // configs/default.yaml (merger.reidentify_*).
 struct ModelRegistrationOptions {
-  int rotations = 256;   // coarse rotation hypotheses, drawn uniformly over SO(3) once [1, 100000]
-  int candidates = 4;    // best coarse hypotheses refined [1, 64]
-  int refine_rounds = 16; // pattern-search rounds per candidate [0, 100]
-  float min_fit = 0.7f;  // EstimateFit the registered pose needs; below it there is none [0, 1]
+  int rotations = 256;       // coarse rotation hypotheses, drawn uniformly over SO(3) once [1, 100000]
+  int candidates = 4;        // best coarse hypotheses refined [1, 64]
+  int refine_rounds = 16;    // pattern-search rounds per candidate [0, 100]
+  float min_fit = 0.7f;      // EstimateFit the registered pose needs; below it there is none [0, 1]
   float cell_size = 0.015f;  // JCSD grid cell = kernel bandwidth, metres (tracker.cell_size) [0.001, 0.2]
   EstimateFitOptions fit;
   std::uint64_t seed = 1;  // the rotation hypotheses' generator

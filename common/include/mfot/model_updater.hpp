@@ -1,26 +1,26 @@
 #pragma once
 // Incremental object model update with a forgetting factor, thesis 3.4.
 
-#include "mfot/likelihood.hpp"
-#include "mfot/smr_feature.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <random>
 #include <span>
 #include <vector>
 
+#include "mfot/likelihood.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 struct ModelUpdateOptions {
-  float alpha = 0.02f;           // [0, 1]: share of the new model drawn from the segmented points
-  std::uint64_t seed = 1;        // seeds the updater's own generator
+  float alpha = 0.02f;     // [0, 1]: share of the new model drawn from the segmented points
+  std::uint64_t seed = 1;  // seeds the updater's own generator
   // Size of every updated model: 0 keeps the size of the model being updated (the thesis's
   // "model size steady"); n > 0 steers every update to n points (a model smaller than n grows
   // towards it from the segmented points, a larger one shrinks).
   std::size_t target_size = 0;
-  SmrOptions smr;                // colour feature of the points taken from the scene
+  SmrOptions smr;  // colour feature of the points taken from the scene
   // > 0: only old points seen this frame (a segmented point within this distance, metres) are
   // forgotten, so the model keeps what is occluded (a hand covering half a box would otherwise
   // erase that half at alpha per frame). 0: the thesis's uniform draw over the whole old model.

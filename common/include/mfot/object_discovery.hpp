@@ -8,15 +8,14 @@
 // cheap Euclidean one and discovery runs only at birth and, to confirm it, on the first
 // confirm_frames frames of the objects born from a cluster.
 
-#include "mfot/part_boundary.hpp"
-#include "mfot/types.hpp"
-
 #include <Eigen/Core>
-
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
+
+#include "mfot/part_boundary.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -29,14 +28,14 @@ enum class DiscoveryMethod {
 // from configs/default.yaml (merger.discovery).
 struct DiscoveryOptions {
   DiscoveryMethod method = DiscoveryMethod::kClusters;
-  float voxel_resolution = 0.0075f;   // supervoxel voxel leaf, metres, (0, 0.1]
-  float seed_resolution = 0.03f;      // supervoxel seed spacing, metres, [voxel_resolution, 0.5]
-  float color_importance = 0.0f;      // supervoxel distance weights, each [0, 100]
+  float voxel_resolution = 0.0075f;  // supervoxel voxel leaf, metres, (0, 0.1]
+  float seed_resolution = 0.03f;     // supervoxel seed spacing, metres, [voxel_resolution, 0.5]
+  float color_importance = 0.0f;     // supervoxel distance weights, each [0, 100]
   float spatial_importance = 1.0f;
   float normal_importance = 4.0f;
   float concavity_tolerance_deg = 10.f;  // a concave edge flatter than this still joins, (0, 90]
-  float smoothness_threshold = 0.1f;  // LCCP's smoothness check (step between supervoxels), [0, 1]; 0 = off
-  bool sanity_criterion = true;       // LCCP's sanity check of singular (edge-on) connections
+  float smoothness_threshold = 0.1f;     // LCCP's smoothness check (step between supervoxels), [0, 1]; 0 = off
+  bool sanity_criterion = true;          // LCCP's sanity check of singular (edge-on) connections
   // Two supervoxels LCCP joins stay joined only while their mean colours' CIELab a*b* lie within this
   // of each other: touching objects whose faces are flush (no concave edge between them) come apart
   // by colour. [0, 200]; 0 = off (convexity alone).

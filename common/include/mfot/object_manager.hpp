@@ -3,20 +3,6 @@
 // frame, segments the scene, updates every model, creates objects from unexplained clusters and
 // retires objects that lost support.
 
-#include "mfot/carry_monitor.hpp"
-#include "mfot/companion_motion.hpp"
-#include "mfot/individuation.hpp"
-#include "mfot/likelihood.hpp"
-#include "mfot/model_updater.hpp"
-#include "mfot/model_registration.hpp"
-#include "mfot/object_discovery.hpp"
-#include "mfot/occlusion.hpp"
-#include "mfot/part_refit.hpp"
-#include "mfot/segmentation.hpp"
-#include "mfot/smr_feature.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -28,6 +14,20 @@
 #include <tuple>
 #include <vector>
 
+#include "mfot/carry_monitor.hpp"
+#include "mfot/companion_motion.hpp"
+#include "mfot/individuation.hpp"
+#include "mfot/likelihood.hpp"
+#include "mfot/model_registration.hpp"
+#include "mfot/model_updater.hpp"
+#include "mfot/object_discovery.hpp"
+#include "mfot/occlusion.hpp"
+#include "mfot/part_refit.hpp"
+#include "mfot/segmentation.hpp"
+#include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot {
 
 // Joining parts of one rigid object and splitting an object whose parts moved apart (step 7 of
@@ -37,11 +37,11 @@ struct JoinSplitOptions {
   // join_translation / join_rotation_deg for join_frames frames while the older one moves at least
   // join_min_motion or turns join_min_turn_deg, and whose models touch (join_contact_distance),
   // are one object: the younger joins the older. 0 frames = off.
-  int join_frames = 0;                // [0, 10000]
-  float join_translation = 0.005f;    // metres, (0, 0.1]
-  float join_rotation_deg = 3.f;      // (0, 45]
-  float join_min_motion = 0.03f;      // metres, (0, 1]
-  float join_min_turn_deg = 20.f;     // (0, 180]
+  int join_frames = 0;                  // [0, 10000]
+  float join_translation = 0.005f;      // metres, (0, 0.1]
+  float join_rotation_deg = 3.f;        // (0, 45]
+  float join_min_motion = 0.03f;        // metres, (0, 1]
+  float join_min_turn_deg = 20.f;       // (0, 180]
   float join_contact_distance = 0.01f;  // metres, (0, 0.1]
   // An object whose segmented points lie in two or more clusters, each holding at least
   // split_min_share of them (and min_object_points), the largest two split_min_gap apart, for
@@ -50,12 +50,12 @@ struct JoinSplitOptions {
   // two), is split: every part that departed from the object's motion (split_min_departure) becomes a
   // new object, and the object keeps the others, the largest among them (its model is rebuilt from
   // them). 0 frames = off.
-  int split_frames = 0;               // [0, 10000]
-  float split_min_share = 0.2f;       // (0, 0.5]
+  int split_frames = 0;          // [0, 10000]
+  float split_min_share = 0.2f;  // (0, 0.5]
   // The parts must lie at least this far apart (metres, [0, 1]): a grazing view that cuts an arm
   // from its hand by a few centimetres is not two objects.
   float split_min_gap = 0.03f;
-  float split_max_occluded = 0.1f;    // [0, 1]
+  float split_max_occluded = 0.1f;  // [0, 1]
   // A part other than the largest splits off only once it has departed this far (metres, [0, 1]) from where the
   // object's own motion since the part was first seen apart would have put it (its centroid): a hand seen in two
   // clusters (its front and its arm) moves as one, a box it lets go of stays behind. 0 = any part splits; above 0
@@ -87,8 +87,8 @@ struct ObjectManagerOptions {
   // at a time. 0 disables growth.
   int growth_frames = 300;
   // A retired object is remembered this many frames (0: never): a new object whose colour
-  // distribution matches a remembered one's (its last model's or its first, partial view's) takes its id back (a hand leaving the view and
-  // reaching in again, an object lost and found again), so ids stay stable for controllers.
+  // distribution matches a remembered one's (its last model's or its first, partial view's) takes its id back (a hand
+  // leaving the view and reaching in again, an object lost and found again), so ids stay stable for controllers.
   int reidentify_frames = 900;
   // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
   float reidentify_similarity = 0.9f;
@@ -136,25 +136,25 @@ struct ObjectManagerOptions {
 
 // What a tracker reports for one object and frame.
 struct ObjectEstimate {
-  Pose pose;                // object -> camera
-  float confidence = 0.f;   // 0..1
-  bool held = false;        // the tracker held its filter: nothing of the object to score (hidden)
+  Pose pose;               // object -> camera
+  float confidence = 0.f;  // 0..1
+  bool held = false;       // the tracker held its filter: nothing of the object to score (hidden)
 };
 
 struct ManagedObject {
   std::int32_t id = 0;
-  ObjectModel model;            // object frame
-  Pose pose;                    // latest estimate, object -> camera
+  ObjectModel model;                         // object frame
+  Pose pose;                                 // latest estimate, object -> camera
   PoseVector velocity = PoseVector::Zero();  // last pose change per frame: dx, dy, dz, droll, dpitch, dyaw
   float confidence = 0.f;
-  bool stale = false;           // no estimate arrived for the latest frame
-  bool held = false;            // its tracker held it in the latest frame (ObjectEstimate::held)
-  std::int32_t version = 0;     // incremented on every model change
+  bool stale = false;        // no estimate arrived for the latest frame
+  bool held = false;         // its tracker held it in the latest frame (ObjectEstimate::held)
+  std::int32_t version = 0;  // incremented on every model change
   // The model's parts, each placed with one frame's pose, as the end index of each (ascending, the last
   // one the model's size): part 0 the view that set the object's frame, one part per growth, join or
   // registration since (PartRefit). One part when the model update mixes points (alpha > 0).
   std::vector<std::uint32_t> part_ends;
-  std::size_t support = 0;      // scene points segmented to it in the latest frame
+  std::size_t support = 0;         // scene points segmented to it in the latest frame
   std::int64_t created_frame = 0;  // frames_processed() when it was created
   // Hidden this frame and carried by this object (its motion moved the pose; CarryMonitor); 0 = not
   // carried. Its tracker moves its filter to the pose.
@@ -167,10 +167,10 @@ struct ManagedObject {
 };
 
 struct ObjectManagerFrame {
-  std::vector<std::int32_t> labels;    // per scene point: object id, 0 = none
-  std::vector<std::int32_t> created;   // ids created this frame (ascending)
-  std::vector<std::int32_t> registered;  // of those, re-identified ones that kept their frame
-  std::vector<std::int32_t> retired;   // ids retired this frame (joined ones too)
+  std::vector<std::int32_t> labels;                           // per scene point: object id, 0 = none
+  std::vector<std::int32_t> created;                          // ids created this frame (ascending)
+  std::vector<std::int32_t> registered;                       // of those, re-identified ones that kept their frame
+  std::vector<std::int32_t> retired;                          // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
   // (young, remembered) this frame: a young object took a remembered id back once grown (reidentify_grown); young is
@@ -223,7 +223,8 @@ struct ObjectManagerFrame {
 class ObjectManager {
  public:
   // discovery: splits born clusters into objects (nullptr: a cluster is one object, the thesis).
-  explicit ObjectManager(const ObjectManagerOptions& options = {}, std::unique_ptr<ObjectDiscovery> discovery = nullptr);
+  explicit ObjectManager(const ObjectManagerOptions& options = {},
+                         std::unique_ptr<ObjectDiscovery> discovery = nullptr);
   ObjectManager(const ObjectManager&) = delete;
   ObjectManager& operator=(const ObjectManager&) = delete;
 
@@ -267,9 +268,9 @@ class ObjectManager {
   struct RetiredObject {
     std::int64_t retired_frame = 0;
     std::int32_t version = 0;
-    ColorHistogram histogram{};    // of its last model
-    ColorHistogram first_seen{};   // of its model when created: what reaching in again shows first
-    ObjectModel model;             // its last model and pose, for the registration
+    ColorHistogram histogram{};   // of its last model
+    ColorHistogram first_seen{};  // of its model when created: what reaching in again shows first
+    ObjectModel model;            // its last model and pose, for the registration
     Pose pose;
     std::vector<std::uint32_t> part_ends;  // its model's parts
   };
@@ -293,7 +294,8 @@ class ObjectManager {
   void create_object(const ColoredCloud& scene, std::span<const int> points);
   // A created object (create_object, or taking a remembered id back once grown) joins this frame: confidence 1,
   // created now, its points (scene indices) labelled, its seeded model updater, its first view's histogram, its birth.
-  void add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen, std::uint64_t birth);
+  void add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
+                  std::uint64_t birth);
   // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster.
@@ -382,7 +384,7 @@ class ObjectManager {
   OcclusionTest occlusion_;
   PartRefit refit_;
   std::map<std::int32_t, std::vector<Eigen::Vector3f>> segmented_;  // step 3's points of each object, camera frame
-  std::vector<std::uint8_t> hidden_;  // per segmentation_.object_ids entry
+  std::vector<std::uint8_t> hidden_;                                // per segmentation_.object_ids entry
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
   std::map<std::int32_t, RetiredObject> retired_;

@@ -2,14 +2,14 @@
 // Ray-casting occlusion test of a model against the scene (thesis 4.1's test for the fitting
 // distance, after [RC11]); mfot also uses it while tracking to tell a hidden object from a lost one.
 
-#include "mfot/likelihood.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <optional>
 #include <span>
 #include <vector>
+
+#include "mfot/likelihood.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -60,7 +60,7 @@ class OcclusionTest {
   // The image the scene came from (nullopt: unknown, every ray counts as in view): a model point outside
   // it is never seen through, since the camera cannot see past where it does not look.
   void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
-  bool occluded(const Eigen::Vector3f& point);                     // camera frame
+  bool occluded(const Eigen::Vector3f& point);  // camera frame
   // The model (object frame) moved by pose (object -> camera) for the two questions below; an
   // object's tracking step sets it once and asks both.
   void set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
@@ -99,14 +99,14 @@ class OcclusionTest {
   std::optional<ViewBounds> view_;
   SpatialHash ray_hash_;  // (x/z, y/z, 0) of scene points with z > 0
   std::vector<Eigen::Vector3f> ray_points_;
-  std::vector<Eigen::Vector3f> ray_scene_;  // the scene point of each ray point (its depth is z)
+  std::vector<Eigen::Vector3f> ray_scene_;   // the scene point of each ray point (its depth is z)
   SpatialHash own_hash_;                     // own_points_, when own_surface_radius > 0
   std::vector<Eigen::Vector3f> own_points_;  // the set model in the camera frame
   // occluded_share: per scene ray point, whether it lies within own_surface_radius of the set model.
   enum OwnSurface : std::uint8_t { kUnknown, kYes, kNo };
   std::vector<OwnSurface> scene_on_own_surface_;
-  bool model_rays_indexed_ = false;          // remove_occluders indexes the model's rays once per set_model
-  SpatialHash model_ray_hash_;               // (x/z, y/z, 0) of the model's points with z > 0
+  bool model_rays_indexed_ = false;  // remove_occluders indexes the model's rays once per set_model
+  SpatialHash model_ray_hash_;       // (x/z, y/z, 0) of the model's points with z > 0
   std::vector<Eigen::Vector3f> model_rays_;
   std::vector<Eigen::Vector3f> model_ray_points_;  // the model point of each ray (its depth is z)
 };

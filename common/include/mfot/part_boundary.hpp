@@ -29,14 +29,13 @@
 //   5. steps 2 and 4 repeat with the same models while points move, at most kMaxPasses times (a
 //      point too far from the face for c's evidence moves once the points before it have).
 
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <Eigen/Core>
-
 #include <array>
 #include <span>
 #include <vector>
+
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -60,7 +59,7 @@ class PartBoundaryRefiner {
                      std::vector<int>& part_of_point);
 
  private:
-  static constexpr int kLevels = 8;     // histogram levels per colour channel
+  static constexpr int kLevels = 8;  // histogram levels per colour channel
   static constexpr int kMaxPasses = 4;
   using Histogram = std::array<float, kLevels * kLevels * kLevels>;
 

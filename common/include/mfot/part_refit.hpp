@@ -4,9 +4,9 @@
 // A box that tumbles shows a new face just as the faces the model holds turn edge-on, so that pose is
 // the least certain of all: on `tumble` a face grown 4-6 degrees off later holds the estimate 4-6 degrees
 // off whenever it fills the view, while the first view still places the object within 1 degree
-// (docs/experiment-log.md "Grown parts re-fitted on the first view"). Where a frame shows the first view and a grown part
-// well, the part's misplacement is measured and undone, as a loop closure re-places a SLAM map's
-// keyframes (here the first view is the fixed keyframe). Steps of refit():
+// (docs/experiment-log.md "Grown parts re-fitted on the first view"). Where a frame shows the first view and a grown
+// part well, the part's misplacement is measured and undone, as a loop closure re-places a SLAM map's keyframes (here
+// the first view is the fixed keyframe). Steps of refit():
 //  1. pair each of the object's segmented scene points with its nearest model point within
 //     icp.max_distance at the pose estimate; the point belongs to that point's part;
 //  2. a part takes part when it is seen well: at least min_points scene points, not lying along a
@@ -24,8 +24,8 @@
 //     their normals (point to plane, the translation left free). A box whose first view shows well only
 //     by its top holds no turn about the vertical, whatever point-to-point ICP's sampled faces pair with,
 //     and on `spin` that turn handed the lagging estimate to the grown face, 5-6 degrees for 60 frames
-//     (docs/experiment-log.md "Refit keeps the rotations the first view holds"). The rotations are the eigenvectors of the
-//     registration's rotational information (point-to-plane normal equations per pair, the translation
+//     (docs/experiment-log.md "Refit keeps the rotations the first view holds"). The rotations are the eigenvectors of
+//     the registration's rotational information (point-to-plane normal equations per pair, the translation
 //     marginalised); one is held when its lever (square root of its eigenvalue, metres) is at least
 //     min_held_rotation times the strongest's. The rest of the misplacement's rotation is dropped; the
 //     part's centroid still moves as measured. (A grown part's own registration is not judged so: a whole
@@ -36,25 +36,25 @@
 // Deterministic, no random draws. Non-copyable: it owns the model hash, the ICPs, the part buffers and the
 // first views' normals.
 
-#include "mfot/icp_refinement.hpp"
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
+
+#include "mfot/icp_refinement.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
 // Member defaults: for library users and unit tests; the services fill every field from
 // configs/default.yaml (merger.refit_*).
 struct PartRefitOptions {
-  bool enabled = false;          // false: refit() moves nothing (the model keeps each part where it grew)
-  int min_points = 150;          // scene points a part needs to take part [3, 1000000]
-  float min_spread = 0.01f;      // their second largest standard deviation, metres [0, 1]
-  float min_coverage = 0.5f;     // share of the part's model points they come near [0, 1]
-  float min_rotation = 0.0087f;  // a smaller misplacement is left: radians [0, pi] ...
+  bool enabled = false;            // false: refit() moves nothing (the model keeps each part where it grew)
+  int min_points = 150;            // scene points a part needs to take part [3, 1000000]
+  float min_spread = 0.01f;        // their second largest standard deviation, metres [0, 1]
+  float min_coverage = 0.5f;       // share of the part's model points they come near [0, 1]
+  float min_rotation = 0.0087f;    // a smaller misplacement is left: radians [0, pi] ...
   float min_translation = 0.002f;  // ... and metres [0, 1] (moved when either is reached)
   // Step 5: a rotation is held by the first view when its lever is at least this share of the strongest's
   // [0, 1]; 0 = the misplacement's whole rotation is kept.
@@ -91,7 +91,7 @@ class PartRefit {
   IcpRefinement first_view_icp_;
   IcpRefinement part_icp_;
   std::vector<std::vector<Eigen::Vector3f>> part_scene_;  // per part: its scene points, camera frame
-  std::vector<std::size_t> seen_parts_;                    // the grown parts seen well (step 2)
+  std::vector<std::size_t> seen_parts_;                   // the grown parts seen well (step 2)
   // Step 5's normals, per first view seen lately (one per object; a first view's points never move, so its normals
   // are computed once each, when first paired): NaN until then.
   struct NormalCache {

@@ -2,13 +2,13 @@
 // Sampling Importance Resampling particle filter over SE(3), thesis 2.2.2 (equations 2.11 to
 // 2.15, Algorithm 1) and 3.1, with the likelihood weights of equation 3.21.
 
-#include "mfot/likelihood.hpp"
-
 #include <cstdint>
 #include <random>
 #include <span>
 #include <string>
 #include <vector>
+
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -35,8 +35,8 @@ struct ParticleFilterOptions {
   int num_particles = 200;  // [1, 1000000]; the thesis runs 100 to 200
   // Standard deviations of C_init (2.12) over (x, y, z, roll, pitch, yaw): metres, radians; >= 0.
   PoseVector init_sigma = (PoseVector() << 0.003f, 0.003f, 0.003f, 0.0175f, 0.0175f, 0.0175f).finished();
-  float a = 0.02f;  // weight of dX dX^T in C_t = a dX dX^T + b C_init (2.14); finite, >= 0
-  float b = 1.f;    // weight of C_init in C_t (2.14); finite, >= 0
+  float a = 0.02f;      // weight of dX dX^T in C_t = a dX dX^T + b C_init (2.14); finite, >= 0
+  float b = 1.f;        // weight of C_init in C_t (2.14); finite, >= 0
   float lambda = 80.f;  // sharpness of the likelihood weights (3.21); in (0, 1000]
   ResamplingScheme resampling = ResamplingScheme::kSystematic;
   float predicted_fraction = 0.5f;  // share of resampled particles moved by dX (2.15); [0, 1]
@@ -45,7 +45,7 @@ struct ParticleFilterOptions {
   // (departure from the thesis: a gripped object turns with its gripper, whose estimate has
   // already caught up with the turn while this object's own dX still lags it). [0, 1]; 0 = the thesis.
   float companion_fraction = 0.f;
-  std::uint64_t seed = 1;           // seeds the filter's own std::mt19937_64
+  std::uint64_t seed = 1;  // seeds the filter's own std::mt19937_64
   // replace_estimate also moves the whole particle set rigidly by this share of the correction (the
   // translation's share, the rotation slerped as far), so the next step starts nearer where the caller's
   // refinement (ICP) put the object (departure from the thesis, whose set only ever moves by its own
@@ -58,19 +58,19 @@ struct ParticleFilterOptions {
   // that tries the estimate moved by +-refine_translation along each axis and turned by
   // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
   // the best and halves both steps. 0 rounds = the thesis (the weighted mean only).
-  int refine_rounds = 0;            // [0, 20]
+  int refine_rounds = 0;              // [0, 20]
   float refine_translation = 0.002f;  // metres, [0, 0.1]
   float refine_rotation = 0.0175f;    // radians, [0, 0.5]
   // The filter's own step motion (what step() without a StepMotion uses).
   StepMotion step_motion() const { return {predicted_fraction, refine_rounds}; }
 };
 
-
 // Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
 // applied in the camera frame about the object's origin: R' = R_inc R with
 // R_inc = Rz(yaw) Ry(pitch) Rx(roll). Increments compose rotations, never add Euler angles.
 Eigen::Quaternionf rotation_from_rpy(const Eigen::Vector3f& rpy);
-Eigen::Vector3f rpy_from_rotation(const Eigen::Quaternionf& rotation);  // roll, yaw in [-pi, pi], pitch in [-pi/2, pi/2]
+Eigen::Vector3f rpy_from_rotation(
+    const Eigen::Quaternionf& rotation);  // roll, yaw in [-pi, pi], pitch in [-pi/2, pi/2]
 // dX = X_to - X_from (2.13): translation difference and the rpy of R_to R_from^T.
 PoseVector pose_difference(const Pose& from, const Pose& to);
 // X + dX: translation added, rotation composed on the left (inverse of pose_difference).

@@ -5,7 +5,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
-
 #include <cstddef>
 
 namespace mfot {

@@ -1,17 +1,17 @@
 #pragma once
 // The [CC13] point-to-point likelihood used as the baseline, thesis 2.3.2, equations 2.18 to 2.21.
 
+#include <array>
+
 #include "mfot/likelihood.hpp"
 #include "mfot/spatial_hash.hpp"
-
-#include <array>
 
 namespace mfot {
 
 struct PointToPointOptions {
-  float lambda_e = 200.f;       // 1/m, spatial sensitivity of 2.18 (exp(-200 * 5 mm) = 0.37)
-  float lambda_c = 2.f;         // colour sensitivity of 2.18, per unit of RGB distance
-  float max_distance = 0.01f;   // m, correspondence search radius; farther points contribute 0
+  float lambda_e = 200.f;      // 1/m, spatial sensitivity of 2.18 (exp(-200 * 5 mm) = 0.37)
+  float lambda_c = 2.f;        // colour sensitivity of 2.18, per unit of RGB distance
+  float max_distance = 0.01f;  // m, correspondence search radius; farther points contribute 0
 };
 
 // Baseline hypothesis evaluation of [CC13] (thesis 2.3.2). Steps per particle:
@@ -31,8 +31,7 @@ class PointToPointLikelihood final : public Likelihood {
 
   std::string_view name() const override { return "point-to-point"; }
   void set_model(const ObjectModel& model) override;
-  void evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                std::span<float> scores) override;
+  void evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) override;
 
  private:
   PointToPointOptions options_;

@@ -18,8 +18,8 @@
 //      was sampled at, and holds back a box that starts to turn from there (docs/experiment-log.md:
 //      "A voxel grid that moves every frame");
 //   5. Euclidean clustering of the voxels: connected components of "closer than the tolerance"
-//      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by their first voxel (EuclideanClusterer's result, computed
-//      by a grid union-find, about 5x faster on 5 mm voxels);
+//      of at least cluster_min_size voxels (no upper bound: a pile is one cluster), numbered by their first voxel
+//      (EuclideanClusterer's result, computed by a grid union-find, about 5x faster on 5 mm voxels);
 //   6. table prism (as PCL's ExtractPolygonalPrismData, own code because it runs per frame on the
 //      core's types): the convex hull of the plane's inliers (an even-stride sample; their largest
 //      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
@@ -31,9 +31,10 @@
 //      within 2 cm of the height below which step 3 removed the table (standing on it, not held
 //      above), or at least half of its foot (its voxels within 1 cm of its lowest) is hidden: just
 //      below each in the image lies, first, a nearer voxel of a cluster that stands (an object
-//      behind a pile's front ones; repeated while clusters join), or the image's bottom edge. The margin of step 3 grows with depth as the sensor's noise does: at least
-//      plane_margin_sigmas x sigma(z), sigma(z) = base + quadratic (z - reference)^2 (Nguyen, Izadi,
-//      Lovell 2012, Kinect v1), so a far table's noise does not become objects.
+//      behind a pile's front ones; repeated while clusters join), or the image's bottom edge. The margin of step 3
+//      grows with depth as the sensor's noise does: at least plane_margin_sigmas x sigma(z), sigma(z) = base +
+//      quadratic (z - reference)^2 (Nguyen, Izadi, Lovell 2012, Kinect v1), so a far table's noise does not become
+//      objects.
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
 // With threads > 1, steps 1-2, the plane split of step 3, the voxel keys of step 4 and the cell
 // keys and neighbour tests of step 5 run on a ThreadPool: rows, points and cells are split into
@@ -41,16 +42,15 @@
 // a concurrent union-find whose result depends only on which voxels are close, so the scene is
 // bit-identical for every thread count. The RANSAC fit stays on the calling thread.
 
-#include "mfot/thread_pool.hpp"
-#include "mfot/types.hpp"
-#include "mfot/voxel_grid.hpp"
-
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <random>
 #include <span>
 #include <vector>
+
+#include "mfot/thread_pool.hpp"
+#include "mfot/types.hpp"
+#include "mfot/voxel_grid.hpp"
 
 namespace mfot {
 
@@ -82,9 +82,7 @@ struct TablePlane {
   Eigen::Vector4f coefficients = Eigen::Vector4f::Zero();
   bool valid = false;
 
-  float signed_distance(const Eigen::Vector3f& p) const {
-    return coefficients.head<3>().dot(p) + coefficients[3];
-  }
+  float signed_distance(const Eigen::Vector3f& p) const { return coefficients.head<3>().dot(p) + coefficients[3]; }
 };
 
 // The preprocessed scene of one frame; every per-point vector has the same length.
@@ -95,8 +93,8 @@ struct SceneCloud {
   std::vector<std::int16_t> pixel_v;       // row of that pixel
   std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
   int num_clusters = 0;
-  TablePlane plane;                        // the plane used for this frame (invalid: none removed)
-  VoxelGrid voxel_grid;                    // step 4's grid of this frame (leaf 0 before the first frame)
+  TablePlane plane;      // the plane used for this frame (invalid: none removed)
+  VoxelGrid voxel_grid;  // step 4's grid of this frame (leaf 0 before the first frame)
 
   std::size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }
@@ -126,11 +124,11 @@ class VoxelDownsampler {
 
   float leaf_size() const { return leaf_size_; }
   std::size_t size() const { return mean_positions_.size(); }
-  std::span<const Eigen::Vector3f> positions() const { return mean_positions_; }  // mean per voxel
-  std::span<const Rgb8> colors() const { return mean_colors_; }                    // rounded mean
-  std::span<const std::uint32_t> first_source_ids() const { return first_source_; } // of the first input point
+  std::span<const Eigen::Vector3f> positions() const { return mean_positions_; }     // mean per voxel
+  std::span<const Rgb8> colors() const { return mean_colors_; }                      // rounded mean
+  std::span<const std::uint32_t> first_source_ids() const { return first_source_; }  // of the first input point
   std::span<const int> point_counts() const { return counts_; }
-  std::span<const int> voxel_of_input() const { return voxel_of_input_; }         // per input point
+  std::span<const int> voxel_of_input() const { return voxel_of_input_; }  // per input point
 
   // Index of the voxel of the last downsample() containing p, or -1 (empty voxel, non-finite p).
   int voxel_index_of(const Eigen::Vector3f& p) const;
@@ -160,11 +158,11 @@ class VoxelDownsampler {
 };
 
 struct PlaneFitOptions {
-  int iterations = 100;              // RANSAC hypotheses per fit, in [1, 100000]
-  int sample_points = 2048;          // points hypotheses are scored on (even stride), in [3, 1000000]
-  float inlier_distance = 0.01f;     // metres, in (0, 0.5]
-  float min_inlier_share = 0.1f;     // of all points, to accept a fit as the table, in (0, 1]
-  std::uint64_t seed = 0x7AB1E;      // of the fitter's generator
+  int iterations = 100;           // RANSAC hypotheses per fit, in [1, 100000]
+  int sample_points = 2048;       // points hypotheses are scored on (even stride), in [3, 1000000]
+  float inlier_distance = 0.01f;  // metres, in (0, 0.5]
+  float min_inlier_share = 0.1f;  // of all points, to accept a fit as the table, in (0, 1]
+  std::uint64_t seed = 0x7AB1E;   // of the fitter's generator
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
@@ -200,24 +198,24 @@ struct PreprocessorOptions {
 
   bool remove_plane = true;
   PlaneFitOptions plane_fit;
-  float plane_margin = 0.01f;        // keep points with signed distance > margin, metres, in [0, 0.5]
-  float plane_margin_sigmas = 0.f;   // ... or this many depth-noise sigmas if more, in [0, 10]; 0 = fixed margin
+  float plane_margin = 0.01f;       // keep points with signed distance > margin, metres, in [0, 0.5]
+  float plane_margin_sigmas = 0.f;  // ... or this many depth-noise sigmas if more, in [0, 10]; 0 = fixed margin
   Eigen::Vector3f depth_sigma{0.0012f, 0.0019f, 0.4f};  // base m, quadratic m/m^2, reference m; each in [0, 1]
-  bool table_prism = false;          // clusters must stand on the table's support polygon (step 6)
-  float prism_min_share = 0.25f;     // least share of a cluster's voxels above the polygon, in (0, 1]
+  bool table_prism = false;                             // clusters must stand on the table's support polygon (step 6)
+  float prism_min_share = 0.25f;  // least share of a cluster's voxels above the polygon, in (0, 1]
   // The kept plane is refitted when its inlier share falls below this fraction of the share it
   // had when fitted (the camera or the table moved), in (0, 1].
   float plane_keep_ratio = 0.7f;
 
-  float voxel_size = 0.005f;         // leaf, metres, in (0, 1]
-  bool voxel_jitter = false;         // step 4's grid corner drawn per frame within one leaf (false: at the origin)
+  float voxel_size = 0.005f;            // leaf, metres, in (0, 1]
+  bool voxel_jitter = false;            // step 4's grid corner drawn per frame within one leaf (false: at the origin)
   std::uint64_t voxel_jitter_seed = 0;  // keys that draw together with the frame's seq
 
   bool cluster = true;
   float cluster_tolerance = 0.015f;  // metres, in (0, 1]
   int cluster_min_size = 30;         // voxels, >= 1: smaller clusters are rejected (-1); none is too large
 
-  int threads = 1;                   // threads of the per-frame work, the caller included, in [1, 64]
+  int threads = 1;  // threads of the per-frame work, the caller included, in [1, 64]
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
@@ -231,17 +229,17 @@ bool inside_convex_polygon(std::span<const Eigen::Vector2f> hull, const Eigen::V
 
 // Per-frame statistics and stage timings (steady clock, milliseconds).
 struct PreprocessStats {
-  std::size_t valid_depth = 0;    // pixels with depth
-  std::size_t cropped = 0;        // points inside the crop box
-  std::size_t above_plane = 0;    // points surviving table removal
+  std::size_t valid_depth = 0;  // pixels with depth
+  std::size_t cropped = 0;      // points inside the crop box
+  std::size_t above_plane = 0;  // points surviving table removal
   std::size_t voxels = 0;
-  int clusters_off_table = 0;     // clusters dropped by the table prism (step 6)
-  float plane_inlier_share = 0.f; // of the cropped points, for the plane used
-  bool plane_refitted = false;    // a RANSAC fit ran this frame
-  double backproject_ms = 0.0;    // steps 1 and 2
-  double plane_ms = 0.0;          // step 3
-  double voxel_ms = 0.0;          // step 4
-  double cluster_ms = 0.0;        // step 5
+  int clusters_off_table = 0;      // clusters dropped by the table prism (step 6)
+  float plane_inlier_share = 0.f;  // of the cropped points, for the plane used
+  bool plane_refitted = false;     // a RANSAC fit ran this frame
+  double backproject_ms = 0.0;     // steps 1 and 2
+  double plane_ms = 0.0;           // step 3
+  double voxel_ms = 0.0;           // step 4
+  double cluster_ms = 0.0;         // step 5
   double total_ms = 0.0;
 };
 

@@ -2,12 +2,12 @@
 // Nearest-neighbour segmentation of the scene by the tracked objects, thesis 3.4, equations
 // 3.22 and 3.23.
 
-#include "mfot/spatial_hash.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <span>
 #include <vector>
+
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -18,9 +18,9 @@ struct SegmentationOptions {
 
 // One tracked object as the segmenter sees it. The spans must stay valid for the call.
 struct SegmentationObject {
-  std::int32_t id = 0;                              // > 0 and unique; 0 means "no object"
-  std::span<const Eigen::Vector3f> model_points;    // object frame, metres
-  Pose pose;                                        // estimate, object -> camera
+  std::int32_t id = 0;                            // > 0 and unique; 0 means "no object"
+  std::span<const Eigen::Vector3f> model_points;  // object frame, metres
+  Pose pose;                                      // estimate, object -> camera
 };
 
 struct SegmentationResult {

@@ -1,12 +1,12 @@
 #pragma once
 // Smoothed Color Ranging colour feature, thesis 3.2.1, equations 3.5 to 3.10.
 
-#include "mfot/types.hpp"
-
 #include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
+
+#include "mfot/types.hpp"
 
 namespace mfot {
 
@@ -25,8 +25,8 @@ struct SmrFeature {
 };
 
 struct SmrOptions {
-  float r = 0.14f;   // exponent scale of the chromatic weight (3.6)
-  float r1 = 0.9f;   // exponent of V in the chromatic weight (3.6)
+  float r = 0.14f;  // exponent scale of the chromatic weight (3.6)
+  float r1 = 0.9f;  // exponent of V in the chromatic weight (3.6)
 };
 
 SmrFeature compute_smr(Rgb8 color, const SmrOptions& options = {});

@@ -4,7 +4,6 @@
 // the radii the method uses (tau = 10 mm segmentation, point-to-point correspondences).
 
 #include <Eigen/Core>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -87,14 +86,14 @@ class SpatialHash {
   float cell_size_;
   float inv_cell_;
   std::size_t size_ = 0;
-  std::vector<Eigen::Vector3f> sorted_points_;  // the finite points, grouped by cell
-  std::vector<int> sorted_index_;               // their input indices, increasing within a cell
-  std::vector<int> finite_scratch_;             // build: input indices of the finite points
+  std::vector<Eigen::Vector3f> sorted_points_;    // the finite points, grouped by cell
+  std::vector<int> sorted_index_;                 // their input indices, increasing within a cell
+  std::vector<int> finite_scratch_;               // build: input indices of the finite points
   std::vector<std::array<int, 3>> cell_scratch_;  // build: their cells
   bool dense_ = false;
   std::array<int, 3> grid_lo_{0, 0, 0};
   std::array<int, 3> grid_dims_{0, 0, 0};
-  std::vector<int> cell_start_;  // dense: offset of every cell's first slot, plus the total
+  std::vector<int> cell_start_;            // dense: offset of every cell's first slot, plus the total
   std::vector<std::uint64_t> table_keys_;  // sparse: kEmptyKey marks a free slot
   std::vector<CellRange> table_ranges_;
   std::vector<std::pair<std::uint64_t, int>> key_scratch_;  // sparse build: (cell key, finite rank)

@@ -31,8 +31,9 @@ class ThreadPool {
   template <class Task>
   void run(std::size_t count, Task&& task) {
     using Callable = std::remove_reference_t<Task>;
-    run_erased(count, [](void* callable, std::size_t i) { (*static_cast<Callable*>(callable))(i); },
-               const_cast<void*>(static_cast<const void*>(&task)));
+    run_erased(
+        count, [](void* callable, std::size_t i) { (*static_cast<Callable*>(callable))(i); },
+        const_cast<void*>(static_cast<const void*>(&task)));
   }
 
  private:

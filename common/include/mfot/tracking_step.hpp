@@ -4,6 +4,11 @@
 // mfot departs from the thesis"): the thesis scores every scene point near the last estimate, so a
 // hand passing over an object pulls its filter onto the hand.
 
+#include <cstddef>
+#include <optional>
+#include <span>
+#include <vector>
+
 #include "mfot/estimate_fit.hpp"
 #include "mfot/hypothesis.hpp"
 #include "mfot/icp_refinement.hpp"
@@ -12,11 +17,6 @@
 #include "mfot/particle_filter.hpp"
 #include "mfot/smr_feature.hpp"
 #include "mfot/spatial_hash.hpp"
-
-#include <cstddef>
-#include <optional>
-#include <span>
-#include <vector>
 
 namespace mfot {
 
@@ -66,7 +66,9 @@ struct TrackingStepOptions {
   float exclude_claimed_radius = 0.f;
   // How far beyond the model's box the other objects' points matter (ObjectManager::claimed_points):
   // the hypothesis margin plus the claim radius; 0 when the claim radius is 0.
-  float claimed_margin() const { return exclude_claimed_radius > 0.f ? hypothesis.margin + exclude_claimed_radius : 0.f; }
+  float claimed_margin() const {
+    return exclude_claimed_radius > 0.f ? hypothesis.margin + exclude_claimed_radius : 0.f;
+  }
   // How hard the filter follows the motion of an isolated object (departure from the thesis): in a
   // frame where no other tracked object's model lies within claimed_margin() of this object's box
   // (set_claimed_points gave none), the filter steps with these settings instead of its options'.
@@ -83,23 +85,22 @@ struct TrackingStepOptions {
   // filter's follow_replaced_estimate says. Departure from the thesis: the JCSD score is smooth over
   // its 15 mm kernel, so its mode lies degrees from the pose at some views.
   IcpRefinementOptions icp;
-  // The last estimate as a second start (departure from the thesis; docs/experiment-log.md "A partly hidden object kept where
-  // it was"). The JCSD score sums the model's density at the scene points, so where part of an object is
-  // hidden, a pose that sinks its visible surface into the model's hidden side scores higher (`apart`: the
-  // base box, still, 8 degrees and 14 mm off while an arm hides half of it, at a 2-3 % higher score). In a
-  // frame where at least this share of the model is occluded at the last estimate and no touching object's
-  // motion is set (a pushed or gripped object moves), the last estimate is refined too (icp's settings, on at
-  // most last_pose_check_points scored points), and it replaces the filter's estimate when it explains the
-  // view better: its share of scored points unexplained (IcpRefinement::unexplained) plus its share of model
-  // points seen through (OcclusionTest::seen_through_share: where the view shows what lies behind), each on at
-  // most last_pose_check_points points, is lower than the estimate's.
-  // [0, 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
+  // The last estimate as a second start (departure from the thesis; docs/experiment-log.md "A partly hidden object kept
+  // where it was"). The JCSD score sums the model's density at the scene points, so where part of an object is hidden,
+  // a pose that sinks its visible surface into the model's hidden side scores higher (`apart`: the base box, still, 8
+  // degrees and 14 mm off while an arm hides half of it, at a 2-3 % higher score). In a frame where at least this share
+  // of the model is occluded at the last estimate and no touching object's motion is set (a pushed or gripped object
+  // moves), the last estimate is refined too (icp's settings, on at most last_pose_check_points scored points), and it
+  // replaces the filter's estimate when it explains the view better: its share of scored points unexplained
+  // (IcpRefinement::unexplained) plus its share of model points seen through (OcclusionTest::seen_through_share: where
+  // the view shows what lies behind), each on at most last_pose_check_points points, is lower than the estimate's. [0,
+  // 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
   float last_pose_check_occluded_share = 0.f;
   int last_pose_check_points = 400;  // [3, 1000000]
-  // The companion's pose as a second start (departure from the thesis; docs/experiment-log.md "A gripped object started where its
-  // companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at least
-  // last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined too,
-  // and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points) is
+  // The companion's pose as a second start (departure from the thesis; docs/experiment-log.md "A gripped object started
+  // where its companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at
+  // least last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined
+  // too, and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points) is
   // lower: a box turned by the hand that grips it shows too little of itself for the
   // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
   // the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it keeps its
@@ -107,17 +108,17 @@ struct TrackingStepOptions {
   // (docs/experiment-log.md "A gripped object started where its companion takes it, by default").
   bool companion_pose_check = false;
   // The filter's turn, kept where the companion turns the same way and the refinement turns it back (step 5e; departure
-  // from the thesis; docs/experiment-log.md "A turn the filter and the companion agree on"). On the preprocessor's fixed voxel grid a
-  // surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly from rest pairs
-  // point to point with where it was: ICP turned the filter's estimate back by about as much as the filter's step
-  // turned it, 1-2 degrees a frame, until the box was 11-14 degrees off (`rotate`, the hand's quick turn). In a frame
-  // where a companion's motion is set and turns at least companion_turn_min (a hand that pushes an object mostly slides
-  // it), the filter's step turned the estimate at least as much from the last estimate, about an axis within
-  // acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate (after steps 5b-5d) kept less than
-  // companion_turn_max_kept of that turn along it: the estimate takes the filter's rotation (about the object's origin)
-  // and keeps the refined translation. Two independent measurements agree on the turn, the box's own score and the
-  // hand's motion; the hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed 86 (0.28 at the
-  // defaults). Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
+  // from the thesis; docs/experiment-log.md "A turn the filter and the companion agree on"). On the preprocessor's
+  // fixed voxel grid a surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly
+  // from rest pairs point to point with where it was: ICP turned the filter's estimate back by about as much as the
+  // filter's step turned it, 1-2 degrees a frame, until the box was 11-14 degrees off (`rotate`, the hand's quick
+  // turn). In a frame where a companion's motion is set and turns at least companion_turn_min (a hand that pushes an
+  // object mostly slides it), the filter's step turned the estimate at least as much from the last estimate, about an
+  // axis within acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate (after steps 5b-5d)
+  // kept less than companion_turn_max_kept of that turn along it: the estimate takes the filter's rotation (about the
+  // object's origin) and keeps the refined translation. Two independent measurements agree on the turn, the box's own
+  // score and the hand's motion; the hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed
+  // 86 (0.28 at the defaults). Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
   float companion_turn_min = 0.f;
   float companion_turn_min_cosine = 0.8f;
   float companion_turn_max_kept = 0.3f;
@@ -126,18 +127,18 @@ struct TrackingStepOptions {
 
 struct TrackingStepResult {
   Pose estimate;
-  bool held = false;                    // the object was hidden, or too little of it left to score: no step
-  bool hold_expired = false;            // held for more than max_hold_frames: stepped (on every point when hidden)
-  float occluded_share = 0.f;           // of the model at the last estimate (0 when not tested)
-  std::size_t hypothesis_points = 0;    // scored points (after removing occluders)
+  bool held = false;                  // the object was hidden, or too little of it left to score: no step
+  bool hold_expired = false;          // held for more than max_hold_frames: stepped (on every point when hidden)
+  float occluded_share = 0.f;         // of the model at the last estimate (0 when not tested)
+  std::size_t hypothesis_points = 0;  // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
-  std::size_t claimed_removed = 0;      // left out as claimed by other objects
-  bool isolated = false;                // stepped with isolated_motion (no other object near)
-  bool icp_refined = false;             // the estimate was refined on the model's surface (icp)
-  bool companion = false;               // stepped with a companion's motion (set_companion_motion)
-  bool last_pose_kept = false;          // the refined last estimate replaced the filter's (last_pose_check_*)
-  bool companion_pose_kept = false;     // the refined companion's pose replaced the filter's (companion_pose_check)
-  bool companion_turn_kept = false;     // the filter's turn, agreeing with the companion's, was kept (companion_turn_min)
+  std::size_t claimed_removed = 0;   // left out as claimed by other objects
+  bool isolated = false;             // stepped with isolated_motion (no other object near)
+  bool icp_refined = false;          // the estimate was refined on the model's surface (icp)
+  bool companion = false;            // stepped with a companion's motion (set_companion_motion)
+  bool last_pose_kept = false;       // the refined last estimate replaced the filter's (last_pose_check_*)
+  bool companion_pose_kept = false;  // the refined companion's pose replaced the filter's (companion_pose_check)
+  bool companion_turn_kept = false;  // the filter's turn, agreeing with the companion's, was kept (companion_turn_min)
   // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
   float fit = 0.f;
   // Share of the model the view sees through at the new estimate, on an even sample of EstimateFit::kScoredPoints
@@ -171,8 +172,8 @@ struct TrackingStepResult {
 //      occluded: the same with the last estimate moved by the companion's motion (one block with 5c: a frame runs
 //      one of the two, by whether a companion is set);
 //  5e. when companion_turn_min > 0 and a companion's motion is set that turns at least that much: where the filter's
-//      step turned the estimate at least as much, about an axis near the companion's turn, and the refined estimate kept
-//      less than companion_turn_max_kept of that turn, the estimate takes the filter's rotation;
+//      step turned the estimate at least as much, about an axis near the companion's turn, and the refined estimate
+//      kept less than companion_turn_max_kept of that turn, the estimate takes the filter's rotation;
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -219,17 +220,19 @@ class TrackingStep {
   HypothesisData hypothesis_;
   EstimateFit fit_;
   IcpRefinement icp_;
-  IcpRefinement last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
+  IcpRefinement
+      last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
   // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
   // estimate, else nullopt.
   std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate);
   // Step 5e: whether the companion and the filter's estimate (from last) both turned at least companion_turn_min, about
   // axes within acos(companion_turn_min_cosine), and the refined estimate kept less than companion_turn_max_kept of it.
-  bool keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined, const PoseVector& companion) const;
-  SpatialHash claimed_hash_;                // set_claimed_points
+  bool keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined,
+                         const PoseVector& companion) const;
+  SpatialHash claimed_hash_;  // set_claimed_points
   std::vector<Eigen::Vector3f> claimed_points_;
   std::optional<PoseVector> companion_motion_;
-  SpatialHash own_;                   // the model at the last estimate, for exclude_claimed_radius
+  SpatialHash own_;  // the model at the last estimate, for exclude_claimed_radius
   std::vector<Eigen::Vector3f> own_points_;
   int held_in_row_ = 0;
   float last_confidence_ = 0.f;

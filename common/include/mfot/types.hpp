@@ -3,7 +3,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -27,9 +26,18 @@ struct ColoredCloud {
 
   std::size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }
-  void clear() { positions.clear(); colors.clear(); }
-  void reserve(std::size_t n) { positions.reserve(n); colors.reserve(n); }
-  void push_back(const Eigen::Vector3f& p, Rgb8 c) { positions.push_back(p); colors.push_back(c); }
+  void clear() {
+    positions.clear();
+    colors.clear();
+  }
+  void reserve(std::size_t n) {
+    positions.reserve(n);
+    colors.reserve(n);
+  }
+  void push_back(const Eigen::Vector3f& p, Rgb8 c) {
+    positions.push_back(p);
+    colors.push_back(c);
+  }
 };
 
 // Rigid pose, object frame -> camera frame.

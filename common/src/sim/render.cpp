@@ -13,15 +13,15 @@
 // Random draws are a counter-based hash of (seed, pixel, stream), which keeps a frame a pure
 // function of its inputs regardless of render order and costs a few cycles per draw.
 
-#include "mfot/sim/scene.hpp"
-#include "mfot/splitmix.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/sim/scene.hpp"
+#include "mfot/splitmix.hpp"
 
 namespace mfot::sim {
 
@@ -67,8 +67,8 @@ Frame3 frame_of(const Pose& p) { return {p.rotation.normalized().toRotationMatri
 
 // Conservative pixel rectangle of a local axis-aligned box [-h, h] posed by f: the projection of
 // the box clipped at the near plane z = kNear. False if the box lies wholly behind it or off-image.
-bool screen_rect(const Frame3& f, const Eigen::Vector3f& half, const CameraIntrinsics& cam, float margin_px,
-                 int& u0, int& v0, int& u1, int& v1) {
+bool screen_rect(const Frame3& f, const Eigen::Vector3f& half, const CameraIntrinsics& cam, float margin_px, int& u0,
+                 int& v0, int& u1, int& v1) {
   constexpr float kNear = 0.01f;
   std::array<Eigen::Vector3f, 8> corners;
   for (int c = 0; c < 8; ++c) {
@@ -244,8 +244,8 @@ void SensorOptions::validate() const {
   require(axial_sigma_base_m >= 0.0f && axial_sigma_base_m <= 0.1f, "SensorOptions.axial_sigma_base_m", "in [0, 0.1]");
   require(axial_sigma_quadratic >= 0.0f && axial_sigma_quadratic <= 0.1f, "SensorOptions.axial_sigma_quadratic",
           "in [0, 0.1]");
-  require(axial_sigma_reference_m >= 0.0f && axial_sigma_reference_m <= 10.0f,
-          "SensorOptions.axial_sigma_reference_m", "in [0, 10]");
+  require(axial_sigma_reference_m >= 0.0f && axial_sigma_reference_m <= 10.0f, "SensorOptions.axial_sigma_reference_m",
+          "in [0, 10]");
   require(lateral_jitter_px >= 0.0f && lateral_jitter_px <= 2.0f, "SensorOptions.lateral_jitter_px", "in [0, 2]");
   require(depth_quantum_m >= 0.0f && depth_quantum_m <= 0.05f, "SensorOptions.depth_quantum_m", "in [0, 0.05]");
   require(baseline_m > 0.0f && baseline_m <= 1.0f, "SensorOptions.baseline_m", "in (0, 1]");
@@ -281,7 +281,9 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
   const bool noise = sensor.noise;
   const std::uint64_t seed = mix64(noise_seed ^ 0x6a09e667f3bcc909ULL);
   // Stream s of pixel i: mix64(seed + 4 i + s).
-  auto draw = [seed](std::size_t i, std::uint64_t stream) { return mix64(seed + 4 * static_cast<std::uint64_t>(i) + stream); };
+  auto draw = [seed](std::size_t i, std::uint64_t stream) {
+    return mix64(seed + 4 * static_cast<std::uint64_t>(i) + stream);
+  };
 
   // 1. Rays.
   std::vector<Hit> hits(n);
@@ -362,7 +364,8 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
                             rt(2, 0) * x + rt(2, 1) * y + rt(2, 2)};
         float t = 0.0f;
         std::uint8_t face = 0;
-        const bool hit = is_box ? intersect_box(org, d, hh, t, face) : intersect_cylinder(org, d, hh[0], hh[2], t, face);
+        const bool hit =
+            is_box ? intersect_box(org, d, hh, t, face) : intersect_cylinder(org, d, hh[0], hh[2], t, face);
         if (hit && t < px.z) {
           px.z = t;
           px.index = index;
@@ -475,7 +478,8 @@ RenderedFrame render_scene(const Scene& scene, const CameraIntrinsics& cam, cons
     // Column pass back into depth, which now holds the band minimum.
     for (int v = 0; v < h; ++v) {
       float* out = depth.data() + static_cast<std::size_t>(v) * w;
-      std::copy(row_min.data() + static_cast<std::size_t>(v) * w, row_min.data() + static_cast<std::size_t>(v + 1) * w, out);
+      std::copy(row_min.data() + static_cast<std::size_t>(v) * w, row_min.data() + static_cast<std::size_t>(v + 1) * w,
+                out);
       for (int dv = std::max(0, v - band); dv <= std::min(h - 1, v + band); ++dv) {
         const float* in = row_min.data() + static_cast<std::size_t>(dv) * w;
         for (int u = 0; u < w; ++u) out[u] = std::min(out[u], in[u]);

@@ -3,16 +3,16 @@
 //
 // Layout conventions: world z = 0 is the table top, objects stand upright on it (centre height =
 // half height) or on each other, and every pair of objects present at frame 0 is at least 4 cm
-// apart, except in `apart`, whose objects start stacked and touching. Hands wait outside the image at frame 0, reach in, grasp from above (palm on the top
-// face, fingers over a side face) and carry objects rigidly; in the hands-free scenarios objects
-// move by keyframes alone. Contacts are exact to 0.5 mm (touching, never overlapping).
-
-#include "script.hpp"
+// apart, except in `apart`, whose objects start stacked and touching. Hands wait outside the image at frame 0, reach
+// in, grasp from above (palm on the top face, fingers over a side face) and carry objects rigidly; in the hands-free
+// scenarios objects move by keyframes alone. Contacts are exact to 0.5 mm (touching, never overlapping).
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
+
+#include "script.hpp"
 
 namespace mfot::sim::detail {
 
@@ -48,8 +48,8 @@ constexpr float kApproach = 0.08f;  // hover height above a grasp or placement, 
 
 // Hand comes above the object, descends, grasps, lifts it above everything on the way, carries
 // it to target (resting pose), lowers it, releases and rises again.
-void pick_and_place(ScriptBuilder& b, const Script& bodies_of, int hand, int object, float grasp_yaw,
-                    const Iso& target, float clear_height) {
+void pick_and_place(ScriptBuilder& b, const Script& bodies_of, int hand, int object, float grasp_yaw, const Iso& target,
+                    float clear_height) {
   const BodyInfo& info = bodies_of.bodies[object].info;
   const Iso grasp = top_grasp(info, b.pose(object), grasp_yaw);
   b.move({{hand, raised(grasp, kApproach)}});
@@ -108,10 +108,9 @@ Script contact_scenario() {
   ScriptBuilder b;
   Bodies s;
   const Eigen::Vector3f left_size(0.08f, 0.08f, 0.10f), right_size(0.10f, 0.07f, 0.09f);
-  const int left = s.add(b,
-                         make_box(1, left_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker,
-                                  kWhite, 0.04f),
-                         at(-0.20f, 0.10f, 0.5f * left_size.z()));
+  const int left =
+      s.add(b, make_box(1, left_size, {kBlue, kYellow, kRed, kGreen, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
+            at(-0.20f, 0.10f, 0.5f * left_size.z()));
   const int right = s.add(b, make_box(2, right_size, {kOrange, kCyan, kMagenta, kLime, kPurple, kPink}),
                           at(0.20f, 0.10f, 0.5f * right_size.z()));
   s.add(b, make_can(3, 0.06f, 0.10f, kGreen, kYellow, kGrey), at(0.02f, 0.40f, 0.05f));
@@ -164,8 +163,8 @@ Script rotate_scenario() {
   ScriptBuilder b;
   Bodies s;
   const Eigen::Vector3f size(0.10f, 0.07f, 0.12f);
-  const int box = s.add(b, make_box(1, size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}),
-                        at(0.0f, 0.08f, 0.5f * size.z()));
+  const int box =
+      s.add(b, make_box(1, size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}), at(0.0f, 0.08f, 0.5f * size.z()));
   s.add(b, make_can(2, 0.07f, 0.11f, kOrange, kBlack, kGrey), at(0.24f, 0.28f, 0.055f));
   const Iso home = at(-0.75f, 0.08f, 0.35f);
   const int hand = s.add(b, make_hand(101), home);
@@ -289,7 +288,8 @@ Script random_scenario(const ScenarioOptions& o, int attempt) {
         const Eigen::Vector2f target = from[i] + dist * Eigen::Vector2f(std::cos(heading), std::sin(heading));
         const float turn = draw.f(-max_turn, max_turn);
         const float r = objects[i].radius;
-        if (target.x() < kXMin + r || target.x() > kXMax - r || target.y() < kYMin + r || target.y() > kYMax - r) continue;
+        if (target.x() < kXMin + r || target.x() > kXMax - r || target.y() < kYMin + r || target.y() > kYMax - r)
+          continue;
         bool clear = true;
         for (std::size_t j = 0; j < objects.size() && clear; ++j) {
           if (j == i) continue;
@@ -391,7 +391,8 @@ Script spin_scenario(const ScenarioOptions& o) {
   b.add_body(make_box(2, {0.08f, 0.06f, 0.10f}, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker,
                       kWhite, 0.04f),
              at(side * draw.f(0.10, 0.24), draw.f(0.24, 0.32), 0.05f, draw.f(-kPi, kPi)));
-  b.add_body(make_can(3, 0.066f, 0.12f, kBlue, kWhite, kGrey), at(-side * draw.f(0.10, 0.24), draw.f(0.24, 0.32), 0.06f));
+  b.add_body(make_can(3, 0.066f, 0.12f, kBlue, kWhite, kGrey),
+             at(-side * draw.f(0.10, 0.24), draw.f(0.24, 0.32), 0.06f));
 
   // The turn as segments (frames, angle, profile); linear ones at most 60 degrees each, so every
   // slerp goes the intended way, and ramps between rates one frame per segment.
@@ -439,8 +440,8 @@ Script spin_scenario(const ScenarioOptions& o) {
   return b.finish(1.2);
 }
 
-// A box rises 8-12 cm off the table (its lowest point stays 6 cm or more above it), tumbles 2.25-2.75 turns about one of its horizontal edges'
-// directions while rocking +-1.1-1.2 rad about the other and drifting sideways, and settles on
+// A box rises 8-12 cm off the table (its lowest point stays 6 cm or more above it), tumbles 2.25-2.75 turns about one
+// of its horizontal edges' directions while rocking +-1.1-1.2 rad about the other and drifting sideways, and settles on
 // the table again (a whole number of quarter turns: it lands on a face). A can stands behind.
 Script tumble_scenario(const ScenarioOptions& o) {
   Draw draw = scene_draw(o, 0x7a3b1eULL);
@@ -457,8 +458,7 @@ Script tumble_scenario(const ScenarioOptions& o) {
 
   const Iso rest = at(start.x(), start.y(), 0.5f * size.z(), start_yaw);
   const int box = b.add_body(info, rest);
-  b.add_body(make_can(2, 0.066f, 0.12f, kOrange, kBlack, kGrey),
-             at(draw.f(-0.20, 0.20), draw.f(0.28, 0.34), 0.06f));
+  b.add_body(make_can(2, 0.066f, 0.12f, kOrange, kBlack, kGrey), at(draw.f(-0.20, 0.20), draw.f(0.28, 0.34), 0.06f));
 
   b.wait(0.5);
   const Iso lifted = raised(rest, lift);
@@ -516,8 +516,9 @@ Script slide_scenario(const ScenarioOptions& o) {
   const Iso end = away(draw.f(0.12, 0.20), draw.f(-0.6, 0.6), -turn * draw.f(0.6, 1.0));
 
   const int mover = b.add_body(make_box(1, mover_size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}), start);
-  b.add_body(make_box(2, anchor_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
-             anchor);
+  b.add_body(
+      make_box(2, anchor_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::checker, kWhite, 0.04f),
+      anchor);
 
   b.wait(1.5);
   b.move({{mover, contact}}, draw(2.5, 3.0));
@@ -541,8 +542,9 @@ Script cross_scenario(const ScenarioOptions& o) {
   const Iso back = at(from_x * draw.f(0.7, 1.0), draw.f(0.04, 0.10), z, start_yaw + turn - turn * draw.f(0.6, 1.0));
 
   const int mover = b.add_body(make_box(1, mover_size, {kRed, kGreen, kBlue, kYellow, kMagenta, kCyan}), start);
-  b.add_body(make_box(2, hidden_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::stripes, kWhite, 0.04f),
-             at(draw.f(-0.08, 0.08), draw.f(0.26, 0.32), 0.5f * hidden_size.z(), draw.f(-0.5, 0.5)));
+  b.add_body(
+      make_box(2, hidden_size, {kOrange, kPurple, kLime, kPink, kWhite, kBlack}, Pattern::stripes, kWhite, 0.04f),
+      at(draw.f(-0.08, 0.08), draw.f(0.26, 0.32), 0.5f * hidden_size.z(), draw.f(-0.5, 0.5)));
 
   b.wait(1.0);
   b.move({{mover, across}}, draw(4.0, 5.0));
@@ -616,7 +618,8 @@ Script apart_scenario() {
   b.move({{hand, home}});
   b.wait(1.0);
   // Fingers over its back face: its right face touches the tall box.
-  pick_and_place(b, s.infos, hand, low, 0.5f * kPi, at(-0.30f, 0.30f, 0.5f * low_size.z(), 25.0f * kPi / 180.0f), 0.06f);
+  pick_and_place(b, s.infos, hand, low, 0.5f * kPi, at(-0.30f, 0.30f, 0.5f * low_size.z(), 25.0f * kPi / 180.0f),
+                 0.06f);
   b.move({{hand, home}});
   return b.finish(0.8);
 }

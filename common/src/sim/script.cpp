@@ -18,10 +18,14 @@ double round_up_to_frames(double seconds) { return std::ceil(seconds * kFps - 1e
 
 double progress(Profile profile, double tau) {
   switch (profile) {
-    case Profile::linear: return tau;
-    case Profile::ease_in: return tau * tau;
-    case Profile::ease_out: return tau * (2.0 - tau);
-    case Profile::eased: break;
+    case Profile::linear:
+      return tau;
+    case Profile::ease_in:
+      return tau * tau;
+    case Profile::ease_out:
+      return tau * (2.0 - tau);
+    case Profile::eased:
+      break;
   }
   return tau * tau * (3.0 - 2.0 * tau);
 }
@@ -83,9 +87,9 @@ int ScriptBuilder::add_body(BodyInfo info, const Iso& world_pose) {
 void ScriptBuilder::key(int body, double t, const Iso& pose, Profile profile) {
   auto& keys = script_.bodies[body].keys;
   if (!keys.empty() && t < keys.back().t) throw std::logic_error("ScriptBuilder::key: keyframes out of order");
-  const Eigen::Vector3f pivot = carrying_[body] >= 0
-                                    ? Eigen::Vector3f(script_.bodies[carrying_[body]].attachments.back().offset.translation())
-                                    : Eigen::Vector3f::Zero();
+  const Eigen::Vector3f pivot =
+      carrying_[body] >= 0 ? Eigen::Vector3f(script_.bodies[carrying_[body]].attachments.back().offset.translation())
+                           : Eigen::Vector3f::Zero();
   keys.push_back({t, pose, pivot, profile});
   current_[body] = pose;
 }
@@ -93,10 +97,12 @@ void ScriptBuilder::key(int body, double t, const Iso& pose, Profile profile) {
 double ScriptBuilder::move(const std::vector<Target>& targets, double min_duration_s) {
   double duration = min_duration_s;
   for (const Target& target : targets) {
-    if (carried_by_[target.body] >= 0) throw std::logic_error("ScriptBuilder::move: a carried body moves with its hand");
+    if (carried_by_[target.body] >= 0)
+      throw std::logic_error("ScriptBuilder::move: a carried body moves with its hand");
     const int obj = carrying_[target.body];
-    const Eigen::Vector3f pivot = obj >= 0 ? Eigen::Vector3f(script_.bodies[obj].attachments.back().offset.translation())
-                                           : Eigen::Vector3f::Zero();
+    const Eigen::Vector3f pivot = obj >= 0
+                                      ? Eigen::Vector3f(script_.bodies[obj].attachments.back().offset.translation())
+                                      : Eigen::Vector3f::Zero();
     duration = std::max(duration, min_move_duration(current_[target.body], target.pose, pivot));
   }
   duration = round_up_to_frames(duration);
@@ -119,8 +125,8 @@ Iso ScriptBuilder::hand_target_for(int hand, const Iso& object_pose) const {
 void ScriptBuilder::grasp(int hand, int object) {
   if (carrying_[hand] >= 0 || carried_by_[object] >= 0) throw std::logic_error("ScriptBuilder::grasp: already held");
   key(object, now_, current_[object]);
-  script_.bodies[object].attachments.push_back({hand, now_, std::numeric_limits<double>::infinity(),
-                                                current_[hand].inverse() * current_[object]});
+  script_.bodies[object].attachments.push_back(
+      {hand, now_, std::numeric_limits<double>::infinity(), current_[hand].inverse() * current_[object]});
   carried_by_[object] = hand;
   carrying_[hand] = object;
 }
@@ -227,7 +233,8 @@ Iso side_grasp(const BodyInfo& object, const Iso& object_pose, float side) {
 
 float half_height(const BodyInfo& object) {
   float out = 0.0f;
-  for (const Primitive& p : object.primitives) out = std::max(out, std::abs(p.pose.translation.z()) + 0.5f * p.size.z());
+  for (const Primitive& p : object.primitives)
+    out = std::max(out, std::abs(p.pose.translation.z()) + 0.5f * p.size.z());
   return out;
 }
 
@@ -249,8 +256,8 @@ Eigen::Vector3f half_extents(const BodyInfo& object) {
 Iso top_grasp(const BodyInfo& object, const Iso& object_pose, float yaw) {
   const Primitive& p = object.primitives.front();
   const float c = std::cos(yaw), s = std::sin(yaw);
-  const float extent = p.kind == PrimitiveKind::box ? 0.5f * (std::abs(c) * p.size.x() + std::abs(s) * p.size.y())
-                                                    : 0.5f * p.size.x();
+  const float extent =
+      p.kind == PrimitiveKind::box ? 0.5f * (std::abs(c) * p.size.x() + std::abs(s) * p.size.y()) : 0.5f * p.size.x();
   const float forward = std::max(0.0f, extent - kPalmHalfLength);
   Iso local = Iso::Identity();
   local.linear() = Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()).toRotationMatrix();

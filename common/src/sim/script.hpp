@@ -10,15 +10,14 @@
 // centre; the body origin otherwise). Slerp takes the shorter way: keys of one turn must be less
 // than 180 degrees apart.
 
-#include "mfot/sim/simulator.hpp"
-
 #include <Eigen/Geometry>
-
 #include <array>
 #include <limits>
 #include <optional>
 #include <random>
 #include <vector>
+
+#include "mfot/sim/simulator.hpp"
 
 namespace mfot::sim::detail {
 
@@ -39,9 +38,9 @@ double progress(Profile profile, double tau);
 
 struct Keyframe {
   double t = 0.0;
-  Iso pose = Iso::Identity();                        // body -> world
-  Eigen::Vector3f pivot = Eigen::Vector3f::Zero();   // body frame; used by the segment ending here
-  Profile profile = Profile::eased;                  // of the segment ending here
+  Iso pose = Iso::Identity();                       // body -> world
+  Eigen::Vector3f pivot = Eigen::Vector3f::Zero();  // body frame; used by the segment ending here
+  Profile profile = Profile::eased;                 // of the segment ending here
 };
 
 struct Attachment {
@@ -52,8 +51,8 @@ struct Attachment {
 
 struct BodyScript {
   BodyInfo info;
-  std::vector<Keyframe> keys;            // sorted by t
-  std::vector<Attachment> attachments;   // disjoint intervals
+  std::vector<Keyframe> keys;           // sorted by t
+  std::vector<Attachment> attachments;  // disjoint intervals
 };
 
 // The fixed surroundings: camera placement, table, floor and wall (plane poses: plane -> world).
@@ -84,9 +83,9 @@ class Draw {
 
 // Distinct, saturated face colours (none close to the table's wood or to skin).
 constexpr Rgb8 kRed{200, 30, 35}, kGreen{35, 160, 60}, kBlue{35, 70, 200}, kYellow{235, 205, 35},
-    kMagenta{190, 40, 165}, kCyan{30, 175, 195}, kOrange{240, 115, 20}, kPurple{105, 50, 165},
-    kWhite{235, 235, 230}, kBlack{35, 35, 40}, kLime{150, 215, 45}, kPink{240, 140, 180}, kGrey{140, 140, 150};
-constexpr std::array<Rgb8, 13> kPalette{kRed,   kGreen, kBlue,  kYellow, kMagenta, kCyan, kOrange,
+    kMagenta{190, 40, 165}, kCyan{30, 175, 195}, kOrange{240, 115, 20}, kPurple{105, 50, 165}, kWhite{235, 235, 230},
+    kBlack{35, 35, 40}, kLime{150, 215, 45}, kPink{240, 140, 180}, kGrey{140, 140, 150};
+constexpr std::array<Rgb8, 13> kPalette{kRed,    kGreen, kBlue,  kYellow, kMagenta, kCyan, kOrange,
                                         kPurple, kWhite, kBlack, kLime,   kPink,    kGrey};
 
 // World pose of body b at time t.
@@ -95,8 +94,8 @@ Iso pose_at(const Script& script, int b, double t);
 // Peak speeds of the scripted motion (ease-in/ease-out peak is 1.5x the mean): the builder picks
 // segment durations so that neither is exceeded by any moving body's origin. Keys added directly
 // set their own pace (spin and tumble turn faster).
-constexpr double kMaxLinearSpeed = 0.27;         // m/s
-constexpr double kMaxAngularSpeed = 1.40;        // rad/s (80 deg/s)
+constexpr double kMaxLinearSpeed = 0.27;   // m/s
+constexpr double kMaxAngularSpeed = 1.40;  // rad/s (80 deg/s)
 constexpr double kFps = 30.0;
 
 // Builds a Script as a sequence of phases on a common timeline. A phase moves some bodies to
@@ -131,8 +130,8 @@ class ScriptBuilder {
  private:
   Script script_;
   std::vector<Iso> current_;
-  std::vector<int> carried_by_;   // per body: carrying hand or -1
-  std::vector<int> carrying_;     // per body (hands): carried object or -1
+  std::vector<int> carried_by_;  // per body: carrying hand or -1
+  std::vector<int> carrying_;    // per body (hands): carried object or -1
   double now_ = 0.0;
 };
 
@@ -143,8 +142,8 @@ double min_move_duration(const Iso& a, const Iso& b, const Eigen::Vector3f& pivo
 Iso interpolate(const Iso& a, const Iso& b, const Eigen::Vector3f& pivot, double tau, Profile profile = Profile::eased);
 
 // ---- bodies ------------------------------------------------------------------------------
-BodyInfo make_box(int id, const Eigen::Vector3f& size, const std::array<Rgb8, 6>& faces, Pattern pattern = Pattern::solid,
-                  Rgb8 pattern_color = {}, float period_m = 0.04f);
+BodyInfo make_box(int id, const Eigen::Vector3f& size, const std::array<Rgb8, 6>& faces,
+                  Pattern pattern = Pattern::solid, Rgb8 pattern_color = {}, float period_m = 0.04f);
 BodyInfo make_can(int id, float diameter, float height, Rgb8 side, Rgb8 stripe, Rgb8 caps, float period_m = 0.03f);
 // A rigid hand: palm box, bent fingers box, and one cylinder for forearm and upper arm rising
 // 20 degrees from the wrist towards up_local (hand frame: x along the fingers, z out of the back of

@@ -1,13 +1,13 @@
 #include "mfot/sim/simulator.hpp"
 
-#include "mfot/splitmix.hpp"
-#include "script.hpp"
-
 #include <algorithm>
-#include <sstream>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/splitmix.hpp"
+#include "script.hpp"
 
 namespace mfot::sim {
 

@@ -11,7 +11,8 @@ namespace mfot::capture {
 
 namespace {
 bool has_field(const pcl::PCLPointCloud2& cloud, const std::string& name) {
-  return std::any_of(cloud.fields.begin(), cloud.fields.end(), [&](const pcl::PCLPointField& f) { return f.name == name; });
+  return std::any_of(cloud.fields.begin(), cloud.fields.end(),
+                     [&](const pcl::PCLPointField& f) { return f.name == name; });
 }
 }  // namespace
 
@@ -24,8 +25,8 @@ bool read_organised_pcd(const std::string& path, PcdImage& out, std::string& err
     Eigen::Quaternionf orientation;
     int version = 0, data_type = 0;
     unsigned int data_index = 0;
-    if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0 ||
-        blob.fields.empty() || blob.width == 0 || blob.height == 0) {
+    if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0 || blob.fields.empty() ||
+        blob.width == 0 || blob.height == 0) {
       error = "not a PCD file (no header with fields and points)";
       return false;
     }

@@ -10,11 +10,11 @@
 namespace mfot::capture {
 
 struct PcdImage {
-  int width = 0;                    // columns of the organised cloud
-  int height = 0;                   // rows
-  std::vector<float> xyz;           // 3 per point, metres, camera frame; NaN = no measurement
-  std::vector<std::uint8_t> rgb;    // 3 per point
-  std::vector<std::uint32_t> label; // one per point when the file has a `label` field (ground truth), else empty
+  int width = 0;                     // columns of the organised cloud
+  int height = 0;                    // rows
+  std::vector<float> xyz;            // 3 per point, metres, camera frame; NaN = no measurement
+  std::vector<std::uint8_t> rgb;     // 3 per point
+  std::vector<std::uint32_t> label;  // one per point when the file has a `label` field (ground truth), else empty
 };
 
 // Reads `path`; false with `error` saying why (unreadable, truncated, not organised, no x y z or no

@@ -1,14 +1,5 @@
 #include "mfot/capture/capture_service.hpp"
 
-#include "mfot/capture/pacing.hpp"
-#include "mfot/capture/source_reader.hpp"
-#include "mfot/poses_t.hpp"
-#include "mfot/service/frame_codec.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/service_main.hpp"
-#include "mfot/service/status.hpp"
-#include "mfot/service/tum_dataset.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -17,6 +8,15 @@
 #include <optional>
 #include <string>
 #include <variant>
+
+#include "mfot/capture/pacing.hpp"
+#include "mfot/capture/source_reader.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/service_main.hpp"
+#include "mfot/service/status.hpp"
+#include "mfot/service/tum_dataset.hpp"
 
 namespace mfot::capture {
 namespace {
@@ -294,15 +294,16 @@ int measure_encodings(FrameSource& source, const service::EncodeOptions& base, i
         }
       }
       const double n = static_cast<double>(frames.size());
-      std::printf("%-6s %-7s %10.0f %10.0f %10.0f %9.2f %9.2f %8.2f %7d\n", service::to_string(depth).c_str(),
-                  (service::to_string(color) + (color == ColorEncoding::kJpeg ? std::to_string(options.jpeg_quality) : ""))
-                      .c_str(),
-                  depth_bytes / n, color_bytes / n, message_bytes / n, encode_ms / n, decode_ms / n, error_sum / n,
-                  max_error);
+      std::printf(
+          "%-6s %-7s %10.0f %10.0f %10.0f %9.2f %9.2f %8.2f %7d\n", service::to_string(depth).c_str(),
+          (service::to_string(color) + (color == ColorEncoding::kJpeg ? std::to_string(options.jpeg_quality) : ""))
+              .c_str(),
+          depth_bytes / n, color_bytes / n, message_bytes / n, encode_ms / n, decode_ms / n, error_sum / n, max_error);
     }
   }
-  std::printf("(colour error after decoding in 8-bit levels, mean over pixels and channels and the largest; "
-              "depth is lossless in every encoding)\n");
+  std::printf(
+      "(colour error after decoding in 8-bit levels, mean over pixels and channels and the largest; "
+      "depth is lossless in every encoding)\n");
   return 0;
 }
 

@@ -84,10 +84,8 @@ CaptureSettings load_capture_settings(service::ConfigSection section) {
   s.loop = read_option<bool>(section, "loop");
   s.groundtruth_dir = read_option<std::string>(section, "groundtruth_dir");
 
-  s.encoding.depth =
-      service::parse_depth_encoding(read_choice(section, "depth_encoding"));
-  s.encoding.color = service::parse_color_encoding(
-      read_choice(section, "color_encoding"));
+  s.encoding.depth = service::parse_depth_encoding(read_choice(section, "depth_encoding"));
+  s.encoding.color = service::parse_color_encoding(read_choice(section, "color_encoding"));
   s.encoding.jpeg_quality = read_option<int>(section, "jpeg_quality");
   s.encoding.zlib_level = read_option<int>(section, "zlib_level");
 

@@ -1,8 +1,8 @@
 #include "mfot/capture/lcmlog_source.hpp"
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <spdlog/spdlog.h>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::capture {
 

@@ -1,7 +1,5 @@
 #include "mfot/capture/openni_source.hpp"
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <OpenNI.h>
 #include <spdlog/spdlog.h>
 
@@ -11,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <thread>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::capture {
 namespace {
@@ -112,8 +112,9 @@ void OpenNiSource::open() {
     openni::Array<openni::DeviceInfo> devices;
     openni::OpenNI::enumerateDevices(&devices);
     if (devices.getSize() == 0) {
-      throw CaptureError("no OpenNI2 device found (is the camera plugged in, powered, and readable by this user? "
-                         "see the udev rules of your camera driver)");
+      throw CaptureError(
+          "no OpenNI2 device found (is the camera plugged in, powered, and readable by this user? "
+          "see the udev rules of your camera driver)");
     }
     device->uri = devices[0].getUri();
   } else {
@@ -139,17 +140,15 @@ void OpenNiSource::open() {
     device->frames_in_recording = playback->getNumberOfFrames(device->depth);
     if (device->frames_in_recording <= 0) throw CaptureError(what + ": recording has no depth frames");
   } else {
-    const openni::VideoMode* depth_mode =
-        find_mode(device->device.getSensorInfo(openni::SENSOR_DEPTH), options_.width, options_.height, options_.fps,
-                  openni::PIXEL_FORMAT_DEPTH_1_MM);
-    const openni::VideoMode* color_mode =
-        find_mode(device->device.getSensorInfo(openni::SENSOR_COLOR), options_.width, options_.height, options_.fps,
-                  openni::PIXEL_FORMAT_RGB888);
+    const openni::VideoMode* depth_mode = find_mode(device->device.getSensorInfo(openni::SENSOR_DEPTH), options_.width,
+                                                    options_.height, options_.fps, openni::PIXEL_FORMAT_DEPTH_1_MM);
+    const openni::VideoMode* color_mode = find_mode(device->device.getSensorInfo(openni::SENSOR_COLOR), options_.width,
+                                                    options_.height, options_.fps, openni::PIXEL_FORMAT_RGB888);
     if (depth_mode == nullptr || color_mode == nullptr) {
       throw CaptureError(what + " offers no " + std::to_string(options_.width) + "x" + std::to_string(options_.height) +
                          "@" + std::to_string(options_.fps) + " depth (1 mm) and RGB888 modes; depth modes: " +
-                         list_modes(device->device.getSensorInfo(openni::SENSOR_DEPTH)) + "; colour modes: " +
-                         list_modes(device->device.getSensorInfo(openni::SENSOR_COLOR)));
+                         list_modes(device->device.getSensorInfo(openni::SENSOR_DEPTH)) +
+                         "; colour modes: " + list_modes(device->device.getSensorInfo(openni::SENSOR_COLOR)));
     }
     if (device->depth.setVideoMode(*depth_mode) != openni::STATUS_OK ||
         device->color.setVideoMode(*color_mode) != openni::STATUS_OK) {
@@ -240,9 +239,11 @@ std::optional<SourceFrame> OpenNiSource::read_pair(std::string& failure) {
   const auto* color_bytes = static_cast<const std::uint8_t*>(color.getData());
   for (int y = 0; y < height; ++y) {
     std::memcpy(frame.depth_mm.data() + static_cast<std::size_t>(y) * width,
-                depth_bytes + static_cast<std::size_t>(y) * depth.getStrideInBytes(), static_cast<std::size_t>(width) * 2);
+                depth_bytes + static_cast<std::size_t>(y) * depth.getStrideInBytes(),
+                static_cast<std::size_t>(width) * 2);
     std::memcpy(frame.color.data() + static_cast<std::size_t>(y) * width,
-                color_bytes + static_cast<std::size_t>(y) * color.getStrideInBytes(), static_cast<std::size_t>(width) * 3);
+                color_bytes + static_cast<std::size_t>(y) * color.getStrideInBytes(),
+                static_cast<std::size_t>(width) * 3);
   }
   return out;
 }

@@ -15,15 +15,17 @@ RateMode parse_rate_mode(const std::string& name) {
 
 std::string to_string(RateMode mode) {
   switch (mode) {
-    case RateMode::kFast: return "fast";
-    case RateMode::kLockstep: return "lockstep";
-    case RateMode::kRealtime: break;
+    case RateMode::kFast:
+      return "fast";
+    case RateMode::kLockstep:
+      return "lockstep";
+    case RateMode::kRealtime:
+      break;
   }
   return "realtime";
 }
 
-RealtimeSchedule::RealtimeSchedule(double speed, std::chrono::milliseconds max_lag)
-    : speed_(speed), max_lag_(max_lag) {
+RealtimeSchedule::RealtimeSchedule(double speed, std::chrono::milliseconds max_lag) : speed_(speed), max_lag_(max_lag) {
   if (!(std::isfinite(speed) && speed > 0.0 && speed <= 100.0)) {
     throw std::invalid_argument("RealtimeSchedule speed " + std::to_string(speed) + " is out of range (0, 100]");
   }

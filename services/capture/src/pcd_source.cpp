@@ -1,12 +1,12 @@
 #include "mfot/capture/pcd_source.hpp"
 
-#include "../pcd/pcd_image.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+
+#include "../pcd/pcd_image.hpp"
 
 namespace mfot::capture {
 
@@ -123,7 +123,8 @@ std::optional<SourceFrame> PcdFolderSource::next() {
         SourceFrame item;
         item.frame = frame_from_organised_cloud(image);
         item.index = index_;
-        item.frame.capture_utime = static_cast<std::int64_t>(std::llround(1e6 * frame_period_s_ * static_cast<double>(index_)));
+        item.frame.capture_utime =
+            static_cast<std::int64_t>(std::llround(1e6 * frame_period_s_ * static_cast<double>(index_)));
         if (!image.label.empty()) {
           item.truth = labels_as_truth(image, item.index, item.frame.capture_utime, background_label_max_);
         }

@@ -21,7 +21,8 @@ SourceFrame to_source_frame(const sim::RenderedFrame& rendered) {
   service::GroundTruthFrame truth;
   truth.frame = rendered.index;
   truth.utime = frame.capture_utime;
-  for (const auto& pose : rendered.poses) truth.objects.push_back({pose.id, pose.is_hand, pose.pose, pose.symmetry_axis});
+  for (const auto& pose : rendered.poses)
+    truth.objects.push_back({pose.id, pose.is_hand, pose.pose, pose.symmetry_axis});
   // Ground truth of the measured pixels only: a pixel without depth has no 3-D point any
   // tracker could label, so scoring it would measure the sensor model, not the tracker.
   truth.labels = service::Image16{frame.width, frame.height, rendered.labels};

@@ -1,15 +1,14 @@
 #include "mfot/capture/source_reader.hpp"
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <spdlog/spdlog.h>
-
 #include <sys/resource.h>
 
 #include <cerrno>
 #include <condition_variable>
 #include <cstring>
 #include <mutex>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::capture {
 
@@ -43,7 +42,8 @@ SourceReader::SourceReader(std::unique_ptr<FrameSource> source, std::int64_t sta
   state_->source = std::move(source);
   // The thread shares the state, so a thread still blocked in the source when the service exits
   // never touches freed memory.
-  thread_ = std::thread([state = state_, start_frame, loop, encoding] { read_all(*state, start_frame, loop, encoding); });
+  thread_ =
+      std::thread([state = state_, start_frame, loop, encoding] { read_all(*state, start_frame, loop, encoding); });
 }
 
 SourceReader::~SourceReader() {
@@ -100,7 +100,8 @@ void SourceReader::read_all(State& state, std::int64_t start_frame, bool loop, c
         hand_over(Ended{});
         break;
       }
-      frame_t message = item->encoded ? std::move(*item->encoded) : service::encode_frame(item->frame, encoding, 0, name, 0);
+      frame_t message =
+          item->encoded ? std::move(*item->encoded) : service::encode_frame(item->frame, encoding, 0, name, 0);
       item->encoded.reset();
       const double read_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
       if (!hand_over(Frame{std::move(*item), std::move(message), rewound, read_ms})) break;

@@ -7,7 +7,7 @@ namespace mfot::service {
 
 const std::vector<std::string>& known_sections() {
   static const std::vector<std::string> sections = {"group",   "capture", "preprocess",
-                                                     "tracker", "merger",  "pcl_baseline"};
+                                                    "tracker", "merger",  "pcl_baseline"};
   return sections;
 }
 
@@ -75,7 +75,8 @@ YAML::Node ConfigSection::lookup(const std::string& key) {
 }
 
 ConfigError ConfigSection::missing(const std::string& key) const {
-  return ConfigError(qualified(key) + ": missing (configs/default.yaml gives every key its default; this build's lacks it)");
+  return ConfigError(qualified(key) +
+                     ": missing (configs/default.yaml gives every key its default; this build's lacks it)");
 }
 
 std::string ConfigSection::choice(const std::string& key, const std::vector<std::string>& allowed) {

@@ -132,7 +132,8 @@ std::optional<std::string> pose_from_arrays(const double position[3], const doub
   }
   if (std::abs(norm2 - 1.0) > 1e-3) return "orientation is not a unit quaternion";
   out.translation = Eigen::Vector3d(position[0], position[1], position[2]).cast<float>();
-  out.rotation = Eigen::Quaterniond(orientation[0], orientation[1], orientation[2], orientation[3]).cast<float>().normalized();
+  out.rotation =
+      Eigen::Quaterniond(orientation[0], orientation[1], orientation[2], orientation[3]).cast<float>().normalized();
   return std::nullopt;
 }
 

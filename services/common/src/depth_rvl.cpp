@@ -1,8 +1,8 @@
 #include "mfot/service/depth_rvl.hpp"
 
-#include "mfot/service/frame_codec.hpp"
-
 #include <string>
+
+#include "mfot/service/frame_codec.hpp"
 
 namespace mfot::service {
 namespace {

@@ -1,16 +1,15 @@
 #include "mfot/service/frame_codec.hpp"
 
 #include "mfot/service/depth_rvl.hpp"
-
 #include "mfot/service/image_io.hpp"
 
 // jpeglib.h needs size_t and FILE declared first.
-#include <cstdio>
 #include <jpeglib.h>
 #include <zlib.h>
 
 #include <cmath>
 #include <csetjmp>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -122,8 +121,8 @@ struct JpegDecompressState {
   JpegErrorManager error;
 };
 
-bool jpeg_decompress_rgb(JpegDecompressState& state, const std::uint8_t* data, std::size_t size, int width,
-                         int height, Rgb8* out) {
+bool jpeg_decompress_rgb(JpegDecompressState& state, const std::uint8_t* data, std::size_t size, int width, int height,
+                         Rgb8* out) {
   state.info.err = jpeg_std_error(&state.error.base);
   state.error.base.error_exit = on_jpeg_error;
   state.error.base.emit_message = on_jpeg_message;
@@ -207,18 +206,24 @@ ColorEncoding parse_color_encoding(const std::string& name) {
 
 std::string to_string(DepthEncoding encoding) {
   switch (encoding) {
-    case DepthEncoding::kZlib: return "zlib";
-    case DepthEncoding::kRvl: return "rvl";
-    case DepthEncoding::kRaw: break;
+    case DepthEncoding::kZlib:
+      return "zlib";
+    case DepthEncoding::kRvl:
+      return "rvl";
+    case DepthEncoding::kRaw:
+      break;
   }
   return "raw";
 }
 
 std::string to_string(ColorEncoding encoding) {
   switch (encoding) {
-    case ColorEncoding::kJpeg: return "jpeg";
-    case ColorEncoding::kPng: return "png";
-    case ColorEncoding::kRaw: break;
+    case ColorEncoding::kJpeg:
+      return "jpeg";
+    case ColorEncoding::kPng:
+      return "png";
+    case ColorEncoding::kRaw:
+      break;
   }
   return "raw";
 }
@@ -330,8 +335,8 @@ frame_t encode_frame(const Frame& frame, const EncodeOptions& options, std::int6
   message.cy = frame.cy;
 
   message.depth_encoding = static_cast<std::int8_t>(options.depth);
-  std::vector<std::uint8_t> depth = options.depth == DepthEncoding::kRvl ? encode_depth_rvl(frame.depth_mm)
-                                                                         : depth_to_bytes(frame.depth_mm);
+  std::vector<std::uint8_t> depth =
+      options.depth == DepthEncoding::kRvl ? encode_depth_rvl(frame.depth_mm) : depth_to_bytes(frame.depth_mm);
   if (options.depth == DepthEncoding::kZlib) depth = compress_zlib(depth, options.zlib_level);
   message.depth_data.assign(depth.begin(), depth.end());
   message.depth_size = static_cast<std::int32_t>(message.depth_data.size());
@@ -397,7 +402,6 @@ void decode_depth_part(const frame_t& message, const std::string& what, std::siz
       frame.depth_mm[i] = static_cast<std::uint16_t>(depth[2 * i] | (depth[2 * i + 1] << 8));
     }
   }
-
 }
 
 void decode_color_part(const frame_t& message, const std::string& what, std::size_t n, Frame& frame) {

@@ -56,12 +56,18 @@ enum class PixelLayout { kGray16, kRgb8 };
 
 const char* color_type_name(int color_type) {
   switch (color_type) {
-    case PNG_COLOR_TYPE_GRAY: return "greyscale";
-    case PNG_COLOR_TYPE_GRAY_ALPHA: return "greyscale+alpha";
-    case PNG_COLOR_TYPE_PALETTE: return "palette";
-    case PNG_COLOR_TYPE_RGB: return "RGB";
-    case PNG_COLOR_TYPE_RGB_ALPHA: return "RGBA";
-    default: return "unknown colour type";
+    case PNG_COLOR_TYPE_GRAY:
+      return "greyscale";
+    case PNG_COLOR_TYPE_GRAY_ALPHA:
+      return "greyscale+alpha";
+    case PNG_COLOR_TYPE_PALETTE:
+      return "palette";
+    case PNG_COLOR_TYPE_RGB:
+      return "RGB";
+    case PNG_COLOR_TYPE_RGB_ALPHA:
+      return "RGBA";
+    default:
+      return "unknown colour type";
   }
 }
 
@@ -115,8 +121,9 @@ bool decode_png(PngContext& context, std::FILE* file, PixelLayout layout, int& w
   png_read_update_info(png, info);
   const std::size_t row_bytes = png_get_rowbytes(png, info);
   if (row_bytes != std::size_t{w} * bytes_per_pixel) {
-    std::snprintf(context.message, sizeof context.message, "unsupported PNG pixel layout (%zu bytes per row for %u pixels)",
-                  row_bytes, static_cast<unsigned>(w));
+    std::snprintf(context.message, sizeof context.message,
+                  "unsupported PNG pixel layout (%zu bytes per row for %u pixels)", row_bytes,
+                  static_cast<unsigned>(w));
     png_destroy_read_struct(&png, &info, nullptr);
     return false;
   }
@@ -272,10 +279,10 @@ void write_file(const std::string& path, const Image& image, PixelLayout layout,
   PngContext context;
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   errno = 0;
-  const bool encoded = encode_png(context, file.get(), layout, image.width, image.height,
-                                  reinterpret_cast<const std::uint8_t*>(image.pixels.data()),
-                                  compression == PngCompression::kFast ? 1 : 6, compression == PngCompression::kSmall,
-                                  rows);
+  const bool encoded =
+      encode_png(context, file.get(), layout, image.width, image.height,
+                 reinterpret_cast<const std::uint8_t*>(image.pixels.data()),
+                 compression == PngCompression::kFast ? 1 : 6, compression == PngCompression::kSmall, rows);
   const int write_errno = errno;  // of the failed write inside libpng, if any
   errno = 0;
   const bool closed = file.close();

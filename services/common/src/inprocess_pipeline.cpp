@@ -1,10 +1,10 @@
 #include "mfot/service/inprocess_pipeline.hpp"
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::service {
 
@@ -39,16 +39,17 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     tracker->set_view(scene.view);
     const TrackingStepResult step = tracker->track(scene.cloud);
     estimates[id] = {step.estimate, step.confidence, step.held};
-    spdlog::debug("frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders and {} claimed "
-                  "left out, {} claims near{}, fit {:.3f}, seen through {:.3f}, t [{:.3f} {:.3f} {:.3f}]",
-                  seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
-                  step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
-                  std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
-                      (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : "") +
-                      (step.companion_pose_kept ? ", companion's pose kept" : "") +
-                      (step.companion_turn_kept ? ", companion's turn kept" : ""),
-                  step.fit, step.seen_through_share,
-                  step.estimate.translation.x(), step.estimate.translation.y(), step.estimate.translation.z());
+    spdlog::debug(
+        "frame {} object {} ({} model points): {} share {:.2f}, {} points scored, {} occluders and {} claimed "
+        "left out, {} claims near{}, fit {:.3f}, seen through {:.3f}, t [{:.3f} {:.3f} {:.3f}]",
+        seq, id, tracker->model().cloud.size(), step.held ? "held" : "stepped", step.occluded_share,
+        step.hypothesis_points, step.occluders_removed, step.claimed_removed, claimed_.size(),
+        std::string(step.isolated ? ", isolated" : "") + (step.companion ? ", companion's motion" : "") +
+            (step.icp_refined ? ", ICP-refined" : "") + (step.last_pose_kept ? ", last pose kept" : "") +
+            (step.companion_pose_kept ? ", companion's pose kept" : "") +
+            (step.companion_turn_kept ? ", companion's turn kept" : ""),
+        step.fit, step.seen_through_share, step.estimate.translation.x(), step.estimate.translation.y(),
+        step.estimate.translation.z());
   }
   frame_.times.track_ms = ms_since(t_track);
 
@@ -62,7 +63,8 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
     auto& tracker = trackers_[id];
     if (!tracker) tracker = std::make_unique<ObjectTracker>(tracker_options);
     tracker->set_model(id, object.version, object.model, object.pose, object.carried_by != 0);
-    tracker->set_companion_motion(object.companion != 0 ? std::optional<PoseVector>(object.companion_motion) : std::nullopt);
+    tracker->set_companion_motion(object.companion != 0 ? std::optional<PoseVector>(object.companion_motion)
+                                                        : std::nullopt);
   }
   frame_.times.merge_ms = ms_since(t_merge);
   return frame_;

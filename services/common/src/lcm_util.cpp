@@ -1,16 +1,7 @@
 #include "mfot/service/lcm_util.hpp"
 
-#include "mfot/frame_done_t.hpp"
-#include "mfot/service/message_authenticator.hpp"
-
-#include "mfot/frame_t.hpp"
-#include "mfot/heartbeat_t.hpp"
-#include "mfot/object_model_t.hpp"
-#include "mfot/poses_t.hpp"
-#include "mfot/scene_cloud_t.hpp"
-#include "mfot/segmentation_t.hpp"
-
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -18,7 +9,14 @@
 #include <csignal>
 #include <cstdlib>
 
-#include <unistd.h>
+#include "mfot/frame_done_t.hpp"
+#include "mfot/frame_t.hpp"
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/object_model_t.hpp"
+#include "mfot/poses_t.hpp"
+#include "mfot/scene_cloud_t.hpp"
+#include "mfot/segmentation_t.hpp"
+#include "mfot/service/message_authenticator.hpp"
 
 namespace mfot::service {
 
@@ -30,8 +28,7 @@ std::string lcm_url(const std::string& configured) {
 }
 
 std::int64_t now_utime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -91,22 +88,25 @@ int publish_encoded(lcm::LCM& lcm, const std::string& channel, std::vector<std::
   return lcm.publish(channel, message.data(), static_cast<unsigned>(message.size()));
 }
 
-bool message_is_authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name, MalformedCounter& malformed) {
+bool message_is_authentic(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name,
+                          MalformedCounter& malformed) {
   MessageAuthenticator* auth = g_authenticator.get();
   if (auth == nullptr) return true;
   const Verdict verdict =
       auth->verify(channel_name, static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, now_utime());
   if (verdict == Verdict::kAccepted) return true;
   if (verdict == Verdict::kNoEnvelope) {
-    malformed.record(channel_name, "undecodable", "too short for a message (" + std::to_string(rbuf->data_size) + " bytes)");
+    malformed.record(channel_name, "undecodable",
+                     "too short for a message (" + std::to_string(rbuf->data_size) + " bytes)");
     return false;
   }
   std::lock_guard lock(g_rejected_mutex);
   if (++g_rejected[{channel_name, verdict}] == 1) {
     spdlog::warn("{} message on {} dropped ({}); further ones are only counted (service_status_t)",
                  verdict_name(verdict), channel_name,
-                 verdict == Verdict::kForeign ? "another group's id" : verdict == Verdict::kForged
-                     ? "wrong MAC: not signed with this group's key" : "sequence not above the sender's last, or too old");
+                 verdict == Verdict::kForeign  ? "another group's id"
+                 : verdict == Verdict::kForged ? "wrong MAC: not signed with this group's key"
+                                               : "sequence not above the sender's last, or too old");
   }
   return false;
 }
@@ -224,7 +224,8 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const frame_t*) {
   std::int64_t depth_size = 0;
   if (!wire.int32_at(depth_offset, depth_size)) return true;
   if (!wire.fits(depth_offset + 4, depth_size, 1)) return false;
-  const std::size_t color_offset = depth_offset + 4 + static_cast<std::size_t>(std::max<std::int64_t>(depth_size, 0)) + 1;
+  const std::size_t color_offset =
+      depth_offset + 4 + static_cast<std::size_t>(std::max<std::int64_t>(depth_size, 0)) + 1;
   std::int64_t color_size = 0;
   if (!wire.int32_at(color_offset, color_size)) return true;
   return wire.fits(color_offset + 4, color_size, 1);

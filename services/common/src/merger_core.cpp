@@ -1,10 +1,5 @@
 #include "mfot/service/merger_core.hpp"
 
-#include "mfot/heartbeat_t.hpp"
-#include "mfot/object_model_t.hpp"
-#include "mfot/service/merger_messages.hpp"
-#include "mfot/tracker_estimate_t.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -12,6 +7,11 @@
 #include <stdexcept>
 #include <string>
 #include <variant>
+
+#include "mfot/heartbeat_t.hpp"
+#include "mfot/object_model_t.hpp"
+#include "mfot/service/merger_messages.hpp"
+#include "mfot/tracker_estimate_t.hpp"
 
 namespace mfot::service {
 
@@ -108,8 +108,8 @@ void MergerCore::on_heartbeat(const lcm::ReceiveBuffer* rbuf, const std::string&
   const auto exists = [this](std::int32_t id) { return manager_.objects().count(id) > 0; };
   const std::int64_t seq = frames_.last_finished_seq();
   const auto now = clock_();
-  const WorkerPool::Reply reply = workers_.heartbeat(
-      {msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, now, exists);
+  const WorkerPool::Reply reply =
+      workers_.heartbeat({msg.worker_id, msg.instance, msg.host, msg.object_id, msg.last_frame_seq}, now, exists);
   if (reply.clash) sink_.note(*reply.clash);
   // A restarted merger asks the (live, unclashing) holder of an object it does not know for it.
   if (msg.object_id >= 0 && !exists(msg.object_id) && workers_.instance_of(msg.worker_id) == msg.instance &&
@@ -251,8 +251,10 @@ void MergerCore::finish_frame(Clock::time_point now) {
     models_sent_.erase(id);
   }
   for (const std::int32_t id : result.created) {
-    const bool kept_frame = std::find(result.registered.begin(), result.registered.end(), id) != result.registered.end();
-    spdlog::info("object {} created at frame {}{}", id, seq, kept_frame ? " (re-identified: its model registered, frame kept)" : "");
+    const bool kept_frame =
+        std::find(result.registered.begin(), result.registered.end(), id) != result.registered.end();
+    spdlog::info("object {} created at frame {}{}", id, seq,
+                 kept_frame ? " (re-identified: its model registered, frame kept)" : "");
   }
   for (const std::int32_t id : result.found_carried) {
     spdlog::info("object {} found again at frame {} away from where it was carried (its model registered)", id, seq);

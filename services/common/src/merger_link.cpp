@@ -1,8 +1,8 @@
 #include "mfot/service/merger_link.hpp"
 
-#include "mfot/service/merger_messages.hpp"
-
 #include <chrono>
+
+#include "mfot/service/merger_messages.hpp"
 
 namespace mfot::service {
 

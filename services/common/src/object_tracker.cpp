@@ -1,8 +1,8 @@
 #include "mfot/service/object_tracker.hpp"
 
-#include "mfot/hypothesis.hpp"
-
 #include <stdexcept>
+
+#include "mfot/hypothesis.hpp"
 
 namespace mfot::service {
 
@@ -11,8 +11,8 @@ ObjectTracker::ObjectTracker(const ObjectTrackerOptions& options)
   const ParticleFilter validate_only(options_.filter);  // the filter validates its options
 }
 
-bool ObjectTracker::set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model,
-                              const Pose& pose, bool carried) {
+bool ObjectTracker::set_model(std::int32_t object_id, std::int32_t version, const ObjectModel& model, const Pose& pose,
+                              bool carried) {
   const bool new_object = object_id != object_id_ || filter_ == nullptr;
   if (new_object || version != version_) {  // else the model held: no new grid
     likelihood_.likelihood->set_model(model);

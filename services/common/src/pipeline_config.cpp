@@ -1,13 +1,13 @@
 #include "mfot/service/pipeline_config.hpp"
 
-#include "mfot/service/convert.hpp"
-#include "mfot/service/options.hpp"
-
 #include <algorithm>
 #include <numbers>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "mfot/service/convert.hpp"
+#include "mfot/service/options.hpp"
 
 namespace mfot::service {
 
@@ -38,14 +38,14 @@ float read_hold_occluded_share(ConfigSection& tracker) { return read_option<floa
 // The method's constants where the core's option structs keep the thesis (a feature off, or its value):
 // the services run these (docs/method.md, "Constants"). Every other constant of the method is its
 // option struct's default.
-constexpr float kIcpMinPairedShare = 0.8f;         // fewer scored points paired: the estimate stays
-constexpr float kIcpAnchorWeight = 4.f;            // the model's first-view points' weight in ICP's fit
+constexpr float kIcpMinPairedShare = 0.8f;           // fewer scored points paired: the estimate stays
+constexpr float kIcpAnchorWeight = 4.f;              // the model's first-view points' weight in ICP's fit
 constexpr float kConfidenceSeenThroughWeight = 2.f;  // confidence x (1 - this x the share seen through)
-constexpr float kHoldMinScoredShare = 0.2f;        // fewer scored points than this share of the model: hold
-constexpr float kReidentifyGrownMinShare = 0.5f;   // a grown object is matched once it holds this of the model
-constexpr float kNewObjectHeldMargin = 0.02f;      // unexplained points this near a held object's box are its own
-constexpr float kSplitMinDeparture = 0.03f;        // a part splits off once it departed this far
-constexpr float kRefitMinRotationDeg = 0.5f;       // a refit part turned less (and moved less) stays
+constexpr float kHoldMinScoredShare = 0.2f;          // fewer scored points than this share of the model: hold
+constexpr float kReidentifyGrownMinShare = 0.5f;     // a grown object is matched once it holds this of the model
+constexpr float kNewObjectHeldMargin = 0.02f;        // unexplained points this near a held object's box are its own
+constexpr float kSplitMinDeparture = 0.03f;          // a part splits off once it departed this far
+constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less (and moved less) stays
 constexpr float kRefitIcpMinPairedShare = 0.8f;
 constexpr float kRefitIcpMaxRotationDeg = 10.f;
 constexpr int kRefitIcpMaxPoints = 1000;
@@ -67,7 +67,8 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.plane_margin = read_option<float>(s, "plane_margin");
   o.plane_margin_sigmas = read_option<float>(s, "plane_margin_sigmas");
   const auto sigma = read_list(s, "depth_sigma");
-  o.depth_sigma = Eigen::Vector3f(static_cast<float>(sigma[0]), static_cast<float>(sigma[1]), static_cast<float>(sigma[2]));
+  o.depth_sigma =
+      Eigen::Vector3f(static_cast<float>(sigma[0]), static_cast<float>(sigma[1]), static_cast<float>(sigma[2]));
   o.table_prism = read_option<bool>(s, "table_prism");
   o.prism_min_share = read_option<float>(s, "prism_min_share");
   o.plane_keep_ratio = read_option<float>(s, "plane_keep_ratio");
@@ -129,8 +130,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
   c.merger_timeout_ms = read_option<int>(s, "merger_timeout_ms");
   c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
-  c.scenes.model_wait =
-      std::chrono::milliseconds(read_option<int>(s, "model_wait_ms"));
+  c.scenes.model_wait = std::chrono::milliseconds(read_option<int>(s, "model_wait_ms"));
   s.finish();
   try {
     const ParticleFilter validate_only(c.filter);  // the filter and the step validate their options
@@ -188,10 +188,11 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.color_cut = read_option<float>(discovery, "color_cut");
   c.manager.discovery.min_part_points = read_option<int>(discovery, "min_part_points");
   c.manager.discovery.confirm_frames = read_option<int>(discovery, "confirm_frames");
-  if (c.manager.discovery.confirm_frames > 0 && c.manager.discovery.confirm_frames < c.manager.discovery.confirm_votes) {
-    throw ConfigError("merger.discovery.confirm_frames: 0 (off) or at least " +
-                      std::to_string(c.manager.discovery.confirm_votes) + " (the frames a split is confirmed in), got " +
-                      std::to_string(c.manager.discovery.confirm_frames));
+  if (c.manager.discovery.confirm_frames > 0 &&
+      c.manager.discovery.confirm_frames < c.manager.discovery.confirm_votes) {
+    throw ConfigError(
+        "merger.discovery.confirm_frames: 0 (off) or at least " + std::to_string(c.manager.discovery.confirm_votes) +
+        " (the frames a split is confirmed in), got " + std::to_string(c.manager.discovery.confirm_frames));
   }
   c.manager.discovery.confirm_join = read_option<bool>(discovery, "confirm_join");
   c.manager.discovery.boundary.radius = read_option<float>(discovery, "boundary_radius");

@@ -1,8 +1,8 @@
 #include "mfot/service/run_outputs.hpp"
 
-#include "mfot/service/frame_codec.hpp"
-
 #include <thread>
+
+#include "mfot/service/frame_codec.hpp"
 
 namespace mfot::service {
 
@@ -44,9 +44,8 @@ void RunOutputs::write_frame(const Scene& scene, std::span<const std::int32_t> l
   }
   queue_->push([this, seq = scene.frame_seq, points = scene.cloud.positions,
                 labels = std::vector<std::int32_t>(labels.begin(), labels.end()), fitting = std::move(fitting),
-                frame = std::move(frame), voxel_grid = scene.voxel_grid] {
-    write_outputs(seq, points, labels, fitting, frame, voxel_grid);
-  });
+                frame = std::move(frame),
+                voxel_grid = scene.voxel_grid] { write_outputs(seq, points, labels, fitting, frame, voxel_grid); });
 }
 
 void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points,
@@ -71,8 +70,8 @@ void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector
     if (!frame) return;
     try {
       const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
-      writer_.write_labels(seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_grid,
-                                             points, labels));
+      writer_.write_labels(
+          seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_grid, points, labels));
     } catch (const FrameCodecError& e) {
       malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
     }

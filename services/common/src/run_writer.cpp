@@ -1,17 +1,17 @@
 #include "mfot/service/run_writer.hpp"
 
-#include "mfot/service/service_main.hpp"
-
 #include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
-#include <stdexcept>
 #include <limits>
+#include <stdexcept>
 #include <vector>
+
+#include "mfot/service/service_main.hpp"
 
 namespace mfot::service {
 
@@ -38,7 +38,8 @@ void check_stream(const std::ofstream& out, const std::string& path, int saved_e
 std::int64_t cell_of(float v, float inv) { return static_cast<std::int64_t>(std::floor(v * inv)) + (1 << 20); }
 
 std::uint64_t voxel_key(std::int64_t cx, std::int64_t cy, std::int64_t cz) {
-  return (static_cast<std::uint64_t>(cx) << 42) | (static_cast<std::uint64_t>(cy) << 21) | static_cast<std::uint64_t>(cz);
+  return (static_cast<std::uint64_t>(cx) << 42) | (static_cast<std::uint64_t>(cy) << 21) |
+         static_cast<std::uint64_t>(cz);
 }
 
 // Scene voxel labels by voxel key: open addressing with linear probing, the first scene point

@@ -1,9 +1,9 @@
 #include "mfot/service/service_main.hpp"
 
-#include "mfot/service/config.hpp"
-
 #include <malloc.h>
 #include <spdlog/spdlog.h>
+
+#include "mfot/service/config.hpp"
 
 namespace mfot::service {
 

@@ -1,15 +1,14 @@
 #include "mfot/service/status.hpp"
 
-#include "mfot/percentile.hpp"
-#include "mfot/service/message_authenticator.hpp"
-#include "mfot/service/service_main.hpp"
-
-#include "mfot/service_status_t.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <vector>
+
+#include "mfot/percentile.hpp"
+#include "mfot/service/message_authenticator.hpp"
+#include "mfot/service/service_main.hpp"
+#include "mfot/service_status_t.hpp"
 
 namespace mfot::service {
 
@@ -58,9 +57,11 @@ void StatusReporter::publish() {
   }
   msg.message = message_.empty() ? malformed_.last() : message_;
   publish_message(lcm_, channel::kStatus, msg);
-  spdlog::debug("status: {:.1f} Hz, latency p50 {:.2f} ms p99 {:.2f} ms, frames {}, malformed {}, foreign {}, forged {}, replayed {}, backend {}",
-                msg.rate_hz, msg.latency_p50_ms, msg.latency_p99_ms, msg.frames, msg.malformed, msg.foreign, msg.forged,
-                msg.replayed, msg.backend);
+  spdlog::debug(
+      "status: {:.1f} Hz, latency p50 {:.2f} ms p99 {:.2f} ms, frames {}, malformed {}, foreign {}, forged {}, "
+      "replayed {}, backend {}",
+      msg.rate_hz, msg.latency_p50_ms, msg.latency_p99_ms, msg.frames, msg.malformed, msg.foreign, msg.forged,
+      msg.replayed, msg.backend);
   frames_at_last_report_ = frames_;
   last_report_ = now;
 }

@@ -1,11 +1,11 @@
 #include "mfot/service/tracker_worker.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include "mfot/frame_done_t.hpp"
 #include "mfot/object_model_t.hpp"
-#include "mfot/service_status_t.hpp"
 #include "mfot/service/convert.hpp"
-
-#include <spdlog/spdlog.h>
+#include "mfot/service_status_t.hpp"
 
 namespace mfot::service {
 
@@ -206,9 +206,11 @@ void TrackerWorker::track(const Scene& scene) {
   const auto t0 = clock_();
   tracker_.set_view(scene.view);
   const TrackingStepResult result = tracker_.track(scene.cloud);
-  spdlog::debug("frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out, fit {:.3f}, seen through "
-                "{:.3f}", scene.frame_seq, tracker_.object_id(), result.held ? "held" : "stepped", result.occluded_share,
-                result.hypothesis_points, result.occluders_removed, result.fit, result.seen_through_share);
+  spdlog::debug(
+      "frame {} object {}: {} share {:.2f}, {} points scored, {} occluders left out, fit {:.3f}, seen through "
+      "{:.3f}",
+      scene.frame_seq, tracker_.object_id(), result.held ? "held" : "stepped", result.occluded_share,
+      result.hypothesis_points, result.occluders_removed, result.fit, result.seen_through_share);
   tracker_estimate_t msg{};
   msg.utime = now_utime();
   msg.frame_seq = scene.frame_seq;

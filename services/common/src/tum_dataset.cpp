@@ -331,8 +331,9 @@ void GroundTruthWriter::write(const GroundTruthFrame& truth) {
     const auto& t = object.pose.translation;
     const auto& q = object.pose.rotation;
     const auto& a = object.symmetry_axis;
-    std::snprintf(line, sizeof line, "%" PRId64 ",%" PRId64 ",%d,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
-                  truth.frame, truth.utime, object.id, object.is_hand ? 1 : 0, static_cast<double>(t.x()),
+    std::snprintf(line, sizeof line,
+                  "%" PRId64 ",%" PRId64 ",%d,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", truth.frame,
+                  truth.utime, object.id, object.is_hand ? 1 : 0, static_cast<double>(t.x()),
                   static_cast<double>(t.y()), static_cast<double>(t.z()), static_cast<double>(q.x()),
                   static_cast<double>(q.y()), static_cast<double>(q.z()), static_cast<double>(q.w()),
                   static_cast<double>(a.x()), static_cast<double>(a.y()), static_cast<double>(a.z()));
@@ -360,10 +361,11 @@ GroundTruthReader::GroundTruthReader(std::string folder) : folder_(std::move(fol
     std::int64_t frame = 0, utime = 0, id = 0, is_hand = 0;
     double v[10] = {};
     const bool with_axis = fields.size() == 14;
-    bool ok = (fields.size() == 11 || with_axis) && parse_int64(fields[0], frame) && frame >= 0 && parse_int64(fields[1], utime) &&
-              parse_int64(fields[2], id) && id >= 1 && id <= 65535 && parse_int64(fields[3], is_hand) &&
-              (is_hand == 0 || is_hand == 1);
-    for (int k = 0; ok && k < (with_axis ? 10 : 7); ++k) ok = parse_double(fields[static_cast<std::size_t>(4 + k)], v[k]);
+    bool ok = (fields.size() == 11 || with_axis) && parse_int64(fields[0], frame) && frame >= 0 &&
+              parse_int64(fields[1], utime) && parse_int64(fields[2], id) && id >= 1 && id <= 65535 &&
+              parse_int64(fields[3], is_hand) && (is_hand == 0 || is_hand == 1);
+    for (int k = 0; ok && k < (with_axis ? 10 : 7); ++k)
+      ok = parse_double(fields[static_cast<std::size_t>(4 + k)], v[k]);
     if (ok && with_axis) {
       const double axis = std::sqrt(v[7] * v[7] + v[8] * v[8] + v[9] * v[9]);
       ok = axis == 0.0 || std::abs(axis - 1.0) < 1e-3;
@@ -386,11 +388,13 @@ GroundTruthReader::GroundTruthReader(std::string folder) : folder_(std::move(fol
     GroundTruthObject object;
     object.id = static_cast<int>(id);
     object.is_hand = is_hand == 1;
-    object.pose.translation = Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+    object.pose.translation =
+        Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
     object.pose.rotation = Eigen::Quaternionf(static_cast<float>(v[6]), static_cast<float>(v[3]),
                                               static_cast<float>(v[4]), static_cast<float>(v[5]))
                                .normalized();
-    object.symmetry_axis = Eigen::Vector3f(static_cast<float>(v[7]), static_cast<float>(v[8]), static_cast<float>(v[9]));
+    object.symmetry_axis =
+        Eigen::Vector3f(static_cast<float>(v[7]), static_cast<float>(v[8]), static_cast<float>(v[9]));
     truth.objects.push_back(object);
   }
 }
@@ -453,9 +457,9 @@ void TumDatasetWriter::write(const Frame& frame, const GroundTruthFrame* truth) 
     const std::string path = (folder / "intrinsics.txt").string();
     std::FILE* file = std::fopen((path + ".tmp").c_str(), "w");
     if (file == nullptr) throw DatasetError(path + ": cannot create: " + std::strerror(errno));
-    const bool ok = std::fprintf(file, "# fx fy cx cy (pixels)\n%.9g %.9g %.9g %.9g\n", static_cast<double>(frame.fx),
-                                 static_cast<double>(frame.fy), static_cast<double>(frame.cx),
-                                 static_cast<double>(frame.cy)) > 0;
+    const bool ok =
+        std::fprintf(file, "# fx fy cx cy (pixels)\n%.9g %.9g %.9g %.9g\n", static_cast<double>(frame.fx),
+                     static_cast<double>(frame.fy), static_cast<double>(frame.cx), static_cast<double>(frame.cy)) > 0;
     if (std::fclose(file) != 0 || !ok) throw DatasetError(path + ": cannot write");
     rename_into_place(path + ".tmp", path);
   }

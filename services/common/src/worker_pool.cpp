@@ -62,8 +62,10 @@ WorkerPool::Reply WorkerPool::heartbeat(const Heartbeat& hb, Clock::time_point n
     // The holder heartbeats while another process claims its id: they clash. The holder keeps it.
     if (!w.contender_clashes) {
       w.contender_clashes = true;
-      spdlog::error("two processes heartbeat as tracker worker {} (on {} and on {}): the newer one is ignored; "
-                    "give it another --worker-id", worker_id, w.host, w.contender_host);
+      spdlog::error(
+          "two processes heartbeat as tracker worker {} (on {} and on {}): the newer one is ignored; "
+          "give it another --worker-id",
+          worker_id, w.host, w.contender_host);
     }
     ++clashes_;
     reply.clash = clash_text(worker_id, w);

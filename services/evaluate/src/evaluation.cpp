@@ -1,8 +1,5 @@
 #include "mfot/evaluate/evaluation.hpp"
 
-#include "mfot/service/image_io.hpp"
-#include "mfot/service/run_writer.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -10,6 +7,9 @@
 #include <regex>
 #include <set>
 #include <stdexcept>
+
+#include "mfot/service/image_io.hpp"
+#include "mfot/service/run_writer.hpp"
 
 namespace mfot::evaluate {
 
@@ -189,9 +189,8 @@ service::Image16 read_labels(const fs::path& path) {
 
 void require_same_size(const service::Image16& a, const fs::path& pa, const service::Image16& b, const fs::path& pb) {
   if (a.width != b.width || a.height != b.height) {
-    throw EvaluationError(pa.string() + " is " + std::to_string(a.width) + "x" + std::to_string(a.height) +
-                          " but " + pb.string() + " is " + std::to_string(b.width) + "x" +
-                          std::to_string(b.height));
+    throw EvaluationError(pa.string() + " is " + std::to_string(a.width) + "x" + std::to_string(a.height) + " but " +
+                          pb.string() + " is " + std::to_string(b.width) + "x" + std::to_string(b.height));
   }
 }
 
@@ -235,8 +234,8 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
                         run_label_frames.end(), std::back_inserter(segmented));
   result.segmented_frames = segmented.size();
   result.groundtruth_frames_without_prediction = groundtruth.label_frames.size() - segmented.size();
-  SegmentationAccuracy accuracy;        // scene points (thesis 4.3)
-  SegmentationAccuracy pixel_accuracy;  // every measured pixel labelled in either image
+  SegmentationAccuracy accuracy;               // scene points (thesis 4.3)
+  SegmentationAccuracy pixel_accuracy;         // every measured pixel labelled in either image
   std::map<std::int32_t, Visibility> visible;  // ground-truth id -> frames it has points in
   std::vector<std::size_t> frame_points;
   std::vector<std::int32_t> pred_points, gt_points, pred_pixels, gt_pixels;
@@ -249,8 +248,8 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
     service::Image16 depth;
     if (!depth_dir.empty()) {
       const fs::path depth_path = frame_image(depth_dir, frame);
-      if (!fs::exists(depth_path)) throw EvaluationError(depth_path.string() + ": depth image missing for frame " +
-                                                         std::to_string(frame));
+      if (!fs::exists(depth_path))
+        throw EvaluationError(depth_path.string() + ": depth image missing for frame " + std::to_string(frame));
       depth = read_labels(depth_path);
       require_same_size(depth, depth_path, gt, gt_path);
     }
@@ -348,8 +347,8 @@ RunResult evaluate_run(const std::string& name, const fs::path& run_directory, c
         gt_poses.push_back(it->second->pose);
         object.stale_frames += row->stale ? 1 : 0;
       }
-      object.errors = relative_pose_errors(pred_poses, gt_poses,
-                                           object.symmetric ? axis->second : Eigen::Vector3f::Zero());
+      object.errors =
+          relative_pose_errors(pred_poses, gt_poses, object.symmetric ? axis->second : Eigen::Vector3f::Zero());
       if (object.errors.size() > 1) {
         object.summary = summarize(std::span<const PoseError>(object.errors).subspan(1), summary_options);
       }

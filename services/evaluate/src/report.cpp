@@ -42,17 +42,31 @@ class Json {
     after_key_ = true;
     return *this;
   }
-  Json& value(const std::string& v) { separate(); string(v); return *this; }
+  Json& value(const std::string& v) {
+    separate();
+    string(v);
+    return *this;
+  }
   Json& value(const char* v) { return value(std::string(v)); }
-  Json& value(bool v) { separate(); out_ << (v ? "true" : "false"); return *this; }
+  Json& value(bool v) {
+    separate();
+    out_ << (v ? "true" : "false");
+    return *this;
+  }
   Json& value(double v) {
     separate();
-    if (std::isfinite(v)) out_ << v; else out_ << "null";
+    if (std::isfinite(v))
+      out_ << v;
+    else
+      out_ << "null";
     return *this;
   }
   template <class Int>
-    requires std::is_integral_v<Int>
-  Json& value(Int v) { separate(); out_ << v; return *this; }
+  requires std::is_integral_v<Int> Json& value(Int v) {
+    separate();
+    out_ << v;
+    return *this;
+  }
 
  private:
   Json& open(char c) {
@@ -80,10 +94,18 @@ class Json {
     out_ << '"';
     for (const char c : s) {
       switch (c) {
-        case '"': out_ << "\\\""; break;
-        case '\\': out_ << "\\\\"; break;
-        case '\n': out_ << "\\n"; break;
-        case '\t': out_ << "\\t"; break;
+        case '"':
+          out_ << "\\\"";
+          break;
+        case '\\':
+          out_ << "\\\\";
+          break;
+        case '\n':
+          out_ << "\\n";
+          break;
+        case '\t':
+          out_ << "\\t";
+          break;
         default:
           if (static_cast<unsigned char>(c) < 0x20) {
             char buf[8];
@@ -137,9 +159,10 @@ std::string fixed(double v, int digits) {
 }  // namespace
 
 void check_run_name(const std::string& name) {
-  const bool ok = !name.empty() && name.find_first_not_of(
-      "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") == std::string::npos &&
-      name != "." && name != "..";
+  const bool ok = !name.empty() &&
+                  name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") ==
+                      std::string::npos &&
+                  name != "." && name != "..";
   if (!ok) throw EvaluationError("run name '" + name + "': use letters, digits, '_', '-' and '.' only");
 }
 
@@ -275,20 +298,19 @@ void write_summary_json(const fs::path& file, const std::vector<RunResult>& runs
 
 void print_table(std::ostream& out, const std::vector<RunResult>& runs, const EvaluationOptions& options) {
   out << std::left << std::setw(16) << "run" << std::right << std::setw(8) << "frames" << std::setw(10) << "seg acc %"
-      << std::setw(10) << "pixel %" << std::setw(9) << "objects" << std::setw(6) << "lost" << std::setw(11) << "t mean mm" << std::setw(10)
-      << "t med mm" << std::setw(10) << "t max mm" << std::setw(11) << "r mean deg" << std::setw(10) << "r max deg"
-      << std::setw(9) << "> thr %" << std::setw(11) << "fit mm" << '\n';
+      << std::setw(10) << "pixel %" << std::setw(9) << "objects" << std::setw(6) << "lost" << std::setw(11)
+      << "t mean mm" << std::setw(10) << "t med mm" << std::setw(10) << "t max mm" << std::setw(11) << "r mean deg"
+      << std::setw(10) << "r max deg" << std::setw(9) << "> thr %" << std::setw(11) << "fit mm" << '\n';
   for (const auto& run : runs) {
     const auto s = run_pose_summary(run, options);
     std::size_t objects = 0;
     for (const auto& o : run.objects) objects += o.is_hand ? 0 : 1;
-    out << std::left << std::setw(16) << run.name << std::right << std::setw(8) << run.segmented_frames
-        << std::setw(10) << fixed(100.0 * run.accuracy, 2) << std::setw(10) << fixed(100.0 * run.pixel_accuracy, 2)
-        << std::setw(9) << objects << std::setw(6)
-        << run.tracks_lost << std::setw(11) << fixed(s.translation_mean_mm, 2) << std::setw(10)
-        << fixed(s.translation_median_mm, 2) << std::setw(10) << fixed(s.translation_max_mm, 2) << std::setw(11)
-        << fixed(s.rotation_mean_deg, 2) << std::setw(10) << fixed(s.rotation_max_deg, 2) << std::setw(9)
-        << fixed(100.0 * s.share_either_over, 1) << std::setw(11)
+    out << std::left << std::setw(16) << run.name << std::right << std::setw(8) << run.segmented_frames << std::setw(10)
+        << fixed(100.0 * run.accuracy, 2) << std::setw(10) << fixed(100.0 * run.pixel_accuracy, 2) << std::setw(9)
+        << objects << std::setw(6) << run.tracks_lost << std::setw(11) << fixed(s.translation_mean_mm, 2)
+        << std::setw(10) << fixed(s.translation_median_mm, 2) << std::setw(10) << fixed(s.translation_max_mm, 2)
+        << std::setw(11) << fixed(s.rotation_mean_deg, 2) << std::setw(10) << fixed(s.rotation_max_deg, 2)
+        << std::setw(9) << fixed(100.0 * s.share_either_over, 1) << std::setw(11)
         << (run.has_fitting ? fixed(1000.0 * run.fitting_mean_m, 3) : std::string("-")) << '\n';
   }
   out << "(seg acc: scene points, thesis 4.3; pixel: every measured pixel, what preprocessing removed counted as "
@@ -302,9 +324,9 @@ void print_table(std::ostream& out, const std::vector<RunResult>& runs, const Ev
     out << '\n' << run.name << ": per object (depth mask: " << run.depth_mask << ")\n";
     out << std::right << std::setw(6) << "gt id" << std::setw(6) << "hand" << std::setw(8) << "pred id" << std::setw(7)
         << "lost" << std::setw(8) << "frames" << std::setw(11) << "t mean mm" << std::setw(10) << "t med mm"
-        << std::setw(10) << "t max mm" << std::setw(11) << "r mean deg" << std::setw(10) << "r med deg"
-        << std::setw(10) << "r max deg" << std::setw(9) << ">1cm %" << std::setw(9) << ">5deg %" << std::setw(13)
-        << "obs r med" << std::setw(10) << "obs r max" << '\n';
+        << std::setw(10) << "t max mm" << std::setw(11) << "r mean deg" << std::setw(10) << "r med deg" << std::setw(10)
+        << "r max deg" << std::setw(9) << ">1cm %" << std::setw(9) << ">5deg %" << std::setw(13) << "obs r med"
+        << std::setw(10) << "obs r max" << '\n';
     for (const auto& o : run.objects) {
       const auto& s = o.summary;
       out << std::setw(6) << o.groundtruth_id << std::setw(6) << (o.is_hand ? "yes" : "no") << std::setw(8)

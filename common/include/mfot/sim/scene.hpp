@@ -7,15 +7,14 @@
 // Camera convention: pinhole, x right, y down, z forward (optical axis); pixel (u, v) centre
 // looks along ((u - cx) / fx, (v - cy) / fy, 1). Depth is the z coordinate (not the ray length).
 
-#include "mfot/preprocessing.hpp"
-#include "mfot/types.hpp"
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
 #include <array>
 #include <cstdint>
 #include <vector>
+
+#include "mfot/preprocessing.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot::sim {
 
@@ -29,7 +28,7 @@ struct CameraIntrinsics {
 
 // One ground-truth pose: object (or hand) frame -> camera frame.
 struct GroundTruthPose {
-  int id = 0;            // label value of the body in RenderedFrame::labels
+  int id = 0;  // label value of the body in RenderedFrame::labels
   bool is_hand = false;
   Pose pose;
   Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // body frame, unit; zero = none (BodyInfo)
@@ -58,33 +57,33 @@ struct SensorOptions {
   bool noise = true;
   // Axial depth noise, Gaussian-like with sigma(z) = base + quadratic * (z - reference)^2
   // (Nguyen, Izadi, Lovell 2012, Kinect v1: 1.2 mm + 1.9 mm/m^2 * (z - 0.4 m)^2).
-  float axial_sigma_base_m = 0.0012f;      // >= 0
-  float axial_sigma_quadratic = 0.0019f;   // metres per m^2, >= 0
-  float axial_sigma_reference_m = 0.4f;    // >= 0
+  float axial_sigma_base_m = 0.0012f;     // >= 0
+  float axial_sigma_quadratic = 0.0019f;  // metres per m^2, >= 0
+  float axial_sigma_reference_m = 0.4f;   // >= 0
   // Lateral noise: each pixel's ray is jittered in the image plane with this standard deviation
   // (pixels, per axis), so edges fray like a structured-light sensor's.
-  float lateral_jitter_px = 0.25f;         // [0, 2]
+  float lateral_jitter_px = 0.25f;  // [0, 2]
   // Depth quantisation step after the noise (metres; 0 = none besides the uint16 millimetre).
-  float depth_quantum_m = 0.001f;          // [0, 0.05]
+  float depth_quantum_m = 0.001f;  // [0, 0.05]
   // Optional Kinect v1 disparity quantisation: depth is snapped to the depth of the nearest
   // disparity step of disparity_step_px at baseline_m, so steps grow with z^2 (about 2.9 mm at
   // 1 m for the defaults). Off by default: the axial noise model above was measured on real
   // sensor output and already contains the quantisation's spread.
   bool disparity_quantisation = false;
-  float baseline_m = 0.075f;               // (0, 1]
-  float disparity_step_px = 0.125f;        // (0, 1]
+  float baseline_m = 0.075f;         // (0, 1]
+  float disparity_step_px = 0.125f;  // (0, 1]
   // Missing depth where the angle between the ray and the surface normal exceeds this (degrees).
-  float max_incidence_deg = 80.0f;         // (0, 90]
+  float max_incidence_deg = 80.0f;  // (0, 90]
   // Missing depth at depth discontinuities: a pixel loses its depth when a pixel within
   // edge_band_px (Chebyshev distance) is nearer by more than discontinuity_m + discontinuity_rel * z
   // (the far side of an edge, like the structured-light shadow band).
-  float discontinuity_m = 0.02f;           // > 0
-  float discontinuity_rel = 0.02f;         // >= 0
-  int edge_band_px = 1;                    // [0, 4]; 0 disables
-  float min_range_m = 0.4f;                // measurable depth range (z), 0 <= min < max
+  float discontinuity_m = 0.02f;    // > 0
+  float discontinuity_rel = 0.02f;  // >= 0
+  int edge_band_px = 1;             // [0, 4]; 0 disables
+  float min_range_m = 0.4f;         // measurable depth range (z), 0 <= min < max
   float max_range_m = 4.0f;
   // Colour noise: per-channel, Gaussian-like, standard deviation in 8-bit levels.
-  float color_sigma = 2.5f;                // [0, 64]
+  float color_sigma = 2.5f;  // [0, 64]
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;

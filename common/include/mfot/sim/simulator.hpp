@@ -22,12 +22,12 @@
 // edges / cylinder axis; a hand's origin is its palm centre, x along the fingers, z out of the
 // back of the hand.
 
-#include "mfot/sim/scene.hpp"
-
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include "mfot/sim/scene.hpp"
 
 namespace mfot::sim {
 
@@ -39,7 +39,7 @@ struct ScenarioOptions {
   // cross's scene (turn directions, amounts and rates, start yaws, paths), and the whole procedural
   // scene. Procedural seeds 1-999 are for development, 1000 and up for acceptance only.
   std::uint64_t seed = 1;
-  int num_frames = 0;      // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
+  int num_frames = 0;  // 0: the scenario's own length; longer holds the last pose; [0, 1000000]
   // The random scenario only (procedural draws its own):
   int num_objects = 3;     // [1, 16]
   float speed = 0.1f;      // mean sliding speed of objects, m/s, (0, 0.2] (peak is 1.5x)
@@ -72,22 +72,22 @@ struct BodyInfo {
 // scenario and seed only; a procedural scene also its motion class, mover, objects and camera.
 struct SceneSummary {
   struct Object {
-    int id = 0;               // label value
-    std::string shape;        // box | can | bottle | mug
-    std::string texture;      // plain | stripes | label | checker
-    bool moved = false;       // moved by the motion programme
+    int id = 0;           // label value
+    std::string shape;    // box | can | bottle | mug
+    std::string texture;  // plain | stripes | label | checker
+    bool moved = false;   // moved by the motion programme
   };
   std::string scenario;
   std::uint64_t seed = 0;
-  std::string motion;         // one of procedural_motion_names(); empty for the scripted scenarios
-  std::string mover;          // hand | gripper | none: what visibly moves the object
+  std::string motion;  // one of procedural_motion_names(); empty for the scripted scenarios
+  std::string mover;   // hand | gripper | none: what visibly moves the object
   std::vector<Object> objects;
   // spin: the turn axis in the moved object's body frame (unit), the whole turn (radians, signed),
   // and whether it turns standing on the table (about its vertical axis) or lifted.
   Eigen::Vector3f spin_axis = Eigen::Vector3f::Zero();
   float spin_angle_rad = 0.0f;
   bool spin_on_table = false;
-  int stack_base_id = 0;      // stack: the object the moved one ends on
+  int stack_base_id = 0;          // stack: the object the moved one ends on
   float camera_height_m = 0.0f;   // above the table top
   float camera_pitch_rad = 0.0f;  // below the horizontal
 

@@ -3,11 +3,11 @@
 // implementation the thesis timed in Table 4.1). Only in builds with CUDA (MFOT_HAVE_CUDA); host
 // code reaches it through make_likelihood (likelihood_factory.hpp). No CUDA header here.
 
-#include "mfot/jcsd_grid.hpp"
-#include "mfot/likelihood.hpp"
-
 #include <memory>
 #include <string>
+
+#include "mfot/jcsd_grid.hpp"
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -16,8 +16,8 @@ class JcsdDevice;
 }
 
 struct CudaJcsdLikelihoodOptions {
-  JcsdGridOptions grid;   // grid built from the model by set_model
-  int device = 0;         // CUDA device ordinal, >= 0
+  JcsdGridOptions grid;  // grid built from the model by set_model
+  int device = 0;        // CUDA device ordinal, >= 0
   // Work items per tile of 16 particles, each scoring one split of the points, [1, 64]; 0
   // chooses per call from the particle and point counts and the device's multiprocessors.
   int point_splits = 0;
@@ -57,8 +57,7 @@ class CudaJcsdLikelihood final : public Likelihood {
   void set_grid(JcsdGrid grid);
   const JcsdGrid& grid() const { return grid_; }
 
-  void evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                std::span<float> scores) override;
+  void evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) override;
 
   // Timing of the last evaluate that ran the kernel.
   CudaJcsdTiming last_timing() const;

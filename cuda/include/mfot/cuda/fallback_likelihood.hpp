@@ -2,11 +2,11 @@
 // A likelihood that survives a failing primary backend (the GPU): the frame a primary call
 // throws is evaluated by the fallback (the CPU JCSD), so the tracker never loses a frame.
 
-#include "mfot/likelihood.hpp"
-
 #include <cstddef>
 #include <memory>
 #include <string>
+
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -29,8 +29,7 @@ class FallbackLikelihood final : public Likelihood {
   // The primary's name: this object stands for the primary backend.
   std::string_view name() const override { return primary_->name(); }
   void set_model(const ObjectModel& model) override;
-  void evaluate(std::span<const Pose> particles, const HypothesisData& data,
-                std::span<float> scores) override;
+  void evaluate(std::span<const Pose> particles, const HypothesisData& data, std::span<float> scores) override;
 
   // Message of the last primary failure; empty while the primary has never failed.
   const std::string& last_error() const { return last_error_; }
@@ -42,7 +41,7 @@ class FallbackLikelihood final : public Likelihood {
 
   std::unique_ptr<Likelihood> primary_;
   std::unique_ptr<Likelihood> fallback_;
-  ObjectModel model_;                  // the current model, for the fallback
+  ObjectModel model_;  // the current model, for the fallback
   bool primary_has_model_ = false;
   bool fallback_has_model_ = false;
   std::string last_error_;

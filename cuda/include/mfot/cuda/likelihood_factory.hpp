@@ -2,12 +2,12 @@
 // Chooses a likelihood backend at run time. Host code includes only this header: the CUDA
 // implementation stays behind it, in cuda/src.
 
-#include "mfot/jcsd_grid.hpp"
-#include "mfot/likelihood.hpp"
-
 #include <memory>
 #include <string>
 #include <string_view>
+
+#include "mfot/jcsd_grid.hpp"
+#include "mfot/likelihood.hpp"
 
 namespace mfot {
 
@@ -19,15 +19,15 @@ LikelihoodBackend parse_likelihood_backend(std::string_view name);
 
 struct LikelihoodOptions {
   LikelihoodBackend backend = LikelihoodBackend::kAuto;
-  JcsdGridOptions grid;      // JCSD backends
-  int cpu_threads = 1;       // JCSD CPU: threads across particles (>= 1)
-  int cuda_device = 0;       // CUDA: device ordinal
+  JcsdGridOptions grid;  // JCSD backends
+  int cpu_threads = 1;   // JCSD CPU: threads across particles (>= 1)
+  int cuda_device = 0;   // CUDA: device ordinal
 };
 
 struct LikelihoodChoice {
   std::unique_ptr<Likelihood> likelihood;  // never null
-  std::string backend;   // "jcsd-cuda", "jcsd-cpu" or "point-to-point"
-  std::string note;      // why this backend was chosen (e.g. the CUDA error text on fallback)
+  std::string backend;                     // "jcsd-cuda", "jcsd-cpu" or "point-to-point"
+  std::string note;                        // why this backend was chosen (e.g. the CUDA error text on fallback)
 };
 
 // kAuto: CUDA when built with it and a device is present, else CPU JCSD (the reason in `note`).

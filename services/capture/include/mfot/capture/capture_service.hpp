@@ -5,12 +5,11 @@
 // the source's ground truth; reports on MFOT_STATUS, also while the source stalls, and says why
 // it ends before it returns.
 
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+
 #include "mfot/capture/capture_settings.hpp"
 #include "mfot/capture/frame_source.hpp"
-
-#include <lcm/lcm-cpp.hpp>
-
-#include <memory>
 
 namespace mfot::capture {
 

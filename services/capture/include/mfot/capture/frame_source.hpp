@@ -2,13 +2,13 @@
 // The capture service's input: a source of registered RGB-D frames (simulator, TUM folder,
 // OpenNI2 recording or camera) behind one interface, usable without LCM.
 
-#include "mfot/service/frame_codec.hpp"
-#include "mfot/service/tum_dataset.hpp"
-
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
+
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/tum_dataset.hpp"
 
 namespace mfot::capture {
 

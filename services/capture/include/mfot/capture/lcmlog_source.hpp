@@ -5,13 +5,12 @@
 // skipped and counted; a file that is not an lcm log is refused when opened, and a truncated or
 // corrupt event fails next() with the byte offset (service::LcmLogReader validates every header).
 
-#include "mfot/capture/frame_source.hpp"
-
-#include "mfot/service/lcm_log_reader.hpp"
-
 #include <cstdint>
 #include <memory>
 #include <string>
+
+#include "mfot/capture/frame_source.hpp"
+#include "mfot/service/lcm_log_reader.hpp"
 
 namespace mfot::capture {
 

@@ -6,23 +6,23 @@
 // closed and reopened with exponential back-off, and the service says so in its log.
 // Built only with MFOT_OPENNI2 (make_source reports otherwise).
 
-#include "mfot/capture/frame_source.hpp"
-
 #include <functional>
 #include <memory>
+
+#include "mfot/capture/frame_source.hpp"
 
 namespace mfot::capture {
 
 struct OpenNiOptions {
-  std::string uri;     // device URI ("" = first device found) or, with file, the .oni path
-  bool file = false;   // uri is an .oni recording
-  int width = 640;     // requested live video mode, [1, 4096]
-  int height = 480;    // [1, 4096]
-  int fps = 30;        // [1, 120]
-  int read_timeout_ms = 2000;                // a live camera silent this long is reopened, [100, 60000]
-  double reopen_initial_backoff_s = 0.5;     // (0, reopen_max_backoff_s]
-  double reopen_max_backoff_s = 10.0;        // (0, 600]
-  std::function<bool()> stop_requested;      // polled while waiting; may be empty
+  std::string uri;                        // device URI ("" = first device found) or, with file, the .oni path
+  bool file = false;                      // uri is an .oni recording
+  int width = 640;                        // requested live video mode, [1, 4096]
+  int height = 480;                       // [1, 4096]
+  int fps = 30;                           // [1, 120]
+  int read_timeout_ms = 2000;             // a live camera silent this long is reopened, [100, 60000]
+  double reopen_initial_backoff_s = 0.5;  // (0, reopen_max_backoff_s]
+  double reopen_max_backoff_s = 10.0;     // (0, 600]
+  std::function<bool()> stop_requested;   // polled while waiting; may be empty
 
   void validate() const;  // std::invalid_argument naming the field
 };

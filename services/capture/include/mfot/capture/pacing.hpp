@@ -3,13 +3,13 @@
 // (publish the next frame only after the pipeline answered the previous one on MFOT_POSES).
 // Both are clock-agnostic state machines; the service loop does the waiting.
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::capture {
 

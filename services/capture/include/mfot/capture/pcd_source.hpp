@@ -10,12 +10,12 @@
 // used (unreadable, truncated, not organised, no colour, no measured point) is skipped with an error
 // naming it, and counted; the source goes on.
 
-#include "mfot/capture/frame_source.hpp"
-
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include "mfot/capture/frame_source.hpp"
 
 namespace mfot::capture {
 

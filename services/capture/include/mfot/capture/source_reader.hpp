@@ -5,15 +5,15 @@
 // thread runs nicer than its caller: reading ahead (for the simulator: rendering, ~20 ms of CPU a
 // frame) must not take the CPU from the pipeline working on the frame already published.
 
-#include "mfot/capture/frame_source.hpp"
-#include "mfot/service/frame_codec.hpp"
-
 #include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
 #include <thread>
 #include <variant>
+
+#include "mfot/capture/frame_source.hpp"
+#include "mfot/service/frame_codec.hpp"
 
 namespace mfot::capture {
 

@@ -3,9 +3,9 @@
 // skipped with a warning. When the folder has groundtruth/ (written by mfot-simulate), each
 // frame carries the ground truth whose utime equals its capture time.
 
-#include "mfot/capture/frame_source.hpp"
-
 #include <map>
+
+#include "mfot/capture/frame_source.hpp"
 
 namespace mfot::capture {
 

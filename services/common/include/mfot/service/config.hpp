@@ -77,9 +77,14 @@ class ConfigSection {
   std::string qualified(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
   static std::string scalar_text(const YAML::Node& node);
   static std::string line_of(const YAML::Node& node);
-  template <class T> static std::string type_name();
-  template <class T> static std::string to_text(const T& v) {
-    if constexpr (std::is_same_v<T, std::string>) return v; else return std::to_string(v);
+  template <class T>
+  static std::string type_name();
+  template <class T>
+  static std::string to_text(const T& v) {
+    if constexpr (std::is_same_v<T, std::string>)
+      return v;
+    else
+      return std::to_string(v);
   }
 
   YAML::Node node_;
@@ -87,14 +92,38 @@ class ConfigSection {
   std::set<std::string> read_;
 };
 
-template <> inline std::string ConfigSection::type_name<bool>() { return "a boolean"; }
-template <> inline std::string ConfigSection::type_name<int>() { return "an integer"; }
-template <> inline std::string ConfigSection::type_name<long>() { return "an integer"; }
-template <> inline std::string ConfigSection::type_name<long long>() { return "an integer"; }
-template <> inline std::string ConfigSection::type_name<unsigned long>() { return "a non-negative integer"; }
-template <> inline std::string ConfigSection::type_name<float>() { return "a number"; }
-template <> inline std::string ConfigSection::type_name<double>() { return "a number"; }
-template <> inline std::string ConfigSection::type_name<std::string>() { return "a string"; }
+template <>
+inline std::string ConfigSection::type_name<bool>() {
+  return "a boolean";
+}
+template <>
+inline std::string ConfigSection::type_name<int>() {
+  return "an integer";
+}
+template <>
+inline std::string ConfigSection::type_name<long>() {
+  return "an integer";
+}
+template <>
+inline std::string ConfigSection::type_name<long long>() {
+  return "an integer";
+}
+template <>
+inline std::string ConfigSection::type_name<unsigned long>() {
+  return "a non-negative integer";
+}
+template <>
+inline std::string ConfigSection::type_name<float>() {
+  return "a number";
+}
+template <>
+inline std::string ConfigSection::type_name<double>() {
+  return "a number";
+}
+template <>
+inline std::string ConfigSection::type_name<std::string>() {
+  return "a string";
+}
 
 // The top-level mapping `name` of a config root (an empty section when absent). The root itself
 // may only contain known service sections; see known_sections().

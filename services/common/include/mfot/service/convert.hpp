@@ -3,31 +3,31 @@
 // fails (inconsistent sizes, NaN/Inf coordinates, non-unit quaternion) is reported as a string
 // naming the problem and never reaches the core.
 
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
 #include "mfot/frame_done_object_t.hpp"
 #include "mfot/frame_t.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/preprocessing.hpp"
+#include "mfot/scene_cloud_t.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/lcm_util.hpp"
-#include "mfot/scene_cloud_t.hpp"
 #include "mfot/types.hpp"
-
-#include <optional>
-#include <span>
-#include <string>
-#include <vector>
 
 namespace mfot::service {
 
 struct Scene {
   std::int64_t frame_seq = 0;
   std::int64_t capture_utime = 0;
-  VoxelGrid voxel_grid;                  // the preprocessor's grid of this frame (SceneCloud)
-  ColoredCloud cloud;                    // camera frame
-  std::vector<std::int32_t> cluster;     // per point, -1 = none
-  std::optional<ViewBounds> view;        // the source image's field of view; nullopt: not given (size or fx 0)
+  VoxelGrid voxel_grid;               // the preprocessor's grid of this frame (SceneCloud)
+  ColoredCloud cloud;                 // camera frame
+  std::vector<std::int32_t> cluster;  // per point, -1 = none
+  std::optional<ViewBounds> view;     // the source image's field of view; nullopt: not given (size or fx 0)
 };
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.

@@ -18,16 +18,16 @@
 //   4. take / finished: the due frame is handed over with its owners' estimates.
 // No LCM and no clock of its own: the caller passes the time.
 
-#include "mfot/object_manager.hpp"
-#include "mfot/service/convert.hpp"
-#include "mfot/service/worker_pool.hpp"
-
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
 #include <optional>
 #include <vector>
+
+#include "mfot/object_manager.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/worker_pool.hpp"
 
 namespace mfot::service {
 
@@ -105,7 +105,7 @@ class FrameAssembler {
   };
 
   FrameAssemblerOptions options_;
-  std::deque<PendingScene> pending_;  // in sequence order
+  std::deque<PendingScene> pending_;                                          // in sequence order
   std::map<std::int64_t, std::map<std::int32_t, ObjectEstimate>> estimates_;  // frame -> object -> estimate
   Clock::time_point last_finish_{};
   std::int64_t last_finished_seq_ = -1;

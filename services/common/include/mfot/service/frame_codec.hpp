@@ -4,16 +4,16 @@
 // (lossy, quality configurable). Decoding validates every field against width*height and the
 // encodings, so a truncated or corrupt message becomes a FrameCodecError, never bad pixels.
 
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
 #include "mfot/frame_t.hpp"
 #include "mfot/thread_pool.hpp"
 #include "mfot/types.hpp"
-
-#include <cstddef>
-#include <cstdint>
-#include <stdexcept>
-#include <optional>
-#include <string>
-#include <vector>
 
 namespace mfot::service {
 
@@ -27,8 +27,8 @@ struct Frame {
   int width = 0;
   int height = 0;
   float fx = 0.0f, fy = 0.0f, cx = 0.0f, cy = 0.0f;  // pixels
-  std::vector<std::uint16_t> depth_mm;  // width*height, row-major, millimetres, 0 = no measurement
-  std::vector<Rgb8> color;              // width*height, row-major
+  std::vector<std::uint16_t> depth_mm;               // width*height, row-major, millimetres, 0 = no measurement
+  std::vector<Rgb8> color;                           // width*height, row-major
 
   // Throws FrameCodecError when sizes or intrinsics are inconsistent.
   void validate() const;

@@ -3,13 +3,13 @@
 // images (colour), from and to files or memory. Every failure throws ImageIoError naming the file
 // (or "<memory>") and the reason; corrupt or truncated data never reaches the caller as pixels.
 
-#include "mfot/types.hpp"
-
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "mfot/types.hpp"
 
 namespace mfot::service {
 

@@ -7,17 +7,17 @@
 // object on it; segment, update models, create and retire objects; give each new object a
 // tracker and each tracker its object's model (a new grid only for a new model version).
 
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
 #include "mfot/object_manager.hpp"
 #include "mfot/preprocessing.hpp"
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/object_tracker.hpp"
 #include "mfot/service/pipeline_config.hpp"
-
-#include <cstdint>
-#include <map>
-#include <memory>
-#include <string>
 
 namespace mfot::service {
 

@@ -2,18 +2,17 @@
 // LCM plumbing shared by every service: channel names, the transport URL, validated decoding,
 // signal handling and logging set-up.
 
-#include "mfot/types.hpp"
-
-#include <lcm/lcm-cpp.hpp>
-
 #include <cstdint>
 #include <exception>
+#include <lcm/lcm-cpp.hpp>
 #include <map>
-#include <mutex>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "mfot/types.hpp"
 
 namespace mfot {
 class frame_done_t;
@@ -30,8 +29,8 @@ namespace mfot::service {
 class MessageAuthenticator;
 
 namespace channel {
-inline constexpr const char* kFrame = "MFOT_FRAME";                // frame_t, capture -> preprocess, merger
-inline constexpr const char* kScene = "MFOT_SCENE";                // scene_cloud_t, preprocess -> trackers, merger
+inline constexpr const char* kFrame = "MFOT_FRAME";  // frame_t, capture -> preprocess, merger
+inline constexpr const char* kScene = "MFOT_SCENE";  // scene_cloud_t, preprocess -> trackers, merger
 // object_model_t, merger -> one tracker: MFOT_MODEL_<worker_id> (model_channel), so a worker receives
 // and decodes only the models addressed to it; the merger sends a model when it changes or is (re)assigned.
 inline constexpr const char* kModelPrefix = "MFOT_MODEL_";
@@ -45,7 +44,7 @@ inline constexpr const char* kHeartbeat = "MFOT_HEARTBEAT";        // heartbeat_
 // tracker -> merger). See ObjectResumer.
 inline constexpr const char* kModelRequest = "MFOT_MODEL_REQUEST";
 inline constexpr const char* kModelReport = "MFOT_MODEL_REPORT";
-inline constexpr const char* kStatus = "MFOT_STATUS";              // service_status_t, every service
+inline constexpr const char* kStatus = "MFOT_STATUS";  // service_status_t, every service
 // The channel of the models for worker `worker_id` (>= 0).
 inline std::string model_channel(std::int32_t worker_id) { return kModelPrefix + std::to_string(worker_id); }
 }  // namespace channel
@@ -147,9 +146,9 @@ bool decode_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel_n
   }
   if (authenticate && !message_is_authentic(rbuf, channel_name, malformed)) return false;
   if (!declared_sizes_fit(rbuf, static_cast<const T*>(nullptr))) {
-    malformed.record(channel_name, "bad array size",
-                     "declared array or string sizes do not fit the " + std::to_string(rbuf->data_size) +
-                         " message bytes");
+    malformed.record(
+        channel_name, "bad array size",
+        "declared array or string sizes do not fit the " + std::to_string(rbuf->data_size) + " message bytes");
     return false;
   }
   int n = -1;

@@ -16,14 +16,6 @@
 // What goes out is said to a MergerSink (the LCM main publishes it; tests record it). The clock is
 // passed in, so tests drive time.
 
-#include "mfot/frame_done_t.hpp"
-#include "mfot/object_manager.hpp"
-#include "mfot/service/convert.hpp"
-#include "mfot/service/frame_assembler.hpp"
-#include "mfot/service/lcm_util.hpp"
-#include "mfot/service/object_resumer.hpp"
-#include "mfot/service/worker_pool.hpp"
-
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -31,6 +23,14 @@
 #include <span>
 #include <string>
 #include <vector>
+
+#include "mfot/frame_done_t.hpp"
+#include "mfot/object_manager.hpp"
+#include "mfot/service/convert.hpp"
+#include "mfot/service/frame_assembler.hpp"
+#include "mfot/service/lcm_util.hpp"
+#include "mfot/service/object_resumer.hpp"
+#include "mfot/service/worker_pool.hpp"
 
 namespace mfot::service {
 
@@ -69,8 +69,7 @@ class MergerSink {
   // the other objects claim near it (ObjectManager::claimed_points; empty when not asked for), for
   // worker `recipient` (>= 0: the addressee, or a worker that holds the object without owning it).
   virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed,
-                          std::int32_t recipient) = 0;
+                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) = 0;
   // The object is gone, as of frame `frame_seq`; for worker `recipient` (>= 0), which holds it.
   virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) = 0;
   // The frame's end, for every worker; the sink stamps its utime.
@@ -134,11 +133,11 @@ class MergerCore {
   MergerSink& sink_;
   MalformedCounter& malformed_;
   std::function<Clock::time_point()> clock_;
-  float claimed_margin_;                   // MergerCoreOptions::claimed_margin
-  std::vector<std::int32_t> object_ids_;  // scratch: the objects in id order
-  std::vector<Eigen::Vector3f> claimed_;   // scratch: what the other objects claim near one
+  float claimed_margin_;                           // MergerCoreOptions::claimed_margin
+  std::vector<std::int32_t> object_ids_;           // scratch: the objects in id order
+  std::vector<Eigen::Vector3f> claimed_;           // scratch: what the other objects claim near one
   std::map<std::int32_t, ModelSent> models_sent_;  // by object id
-  frame_done_t frame_done_;                // reused every frame
+  frame_done_t frame_done_;                        // reused every frame
 };
 
 }  // namespace mfot::service

@@ -3,17 +3,17 @@
 // scenes, segmentation and poses), writes the run folder's results, keeps the frames the label images
 // need (MFOT_FRAME), and reports on MFOT_STATUS.
 
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
 #include "mfot/frame_t.hpp"
 #include "mfot/service/merger_core.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/pose_velocity.hpp"
 #include "mfot/service/run_outputs.hpp"
 #include "mfot/service/status.hpp"
-
-#include <map>
-#include <memory>
-#include <optional>
-#include <string>
 
 namespace mfot::service {
 

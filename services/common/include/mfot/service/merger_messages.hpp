@@ -2,16 +2,16 @@
 // The merger's outgoing messages, built from the core's objects: an object's model for its owner,
 // a frame's end (frame_done_t), a retirement, the controller-facing poses and the segmentation of a frame.
 
+#include <cstdint>
+#include <map>
+#include <span>
+
 #include "mfot/frame_done_t.hpp"
 #include "mfot/object_manager.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/poses_t.hpp"
 #include "mfot/segmentation_t.hpp"
 #include "mfot/service/pose_velocity.hpp"
-
-#include <cstdint>
-#include <map>
-#include <span>
 
 namespace mfot::service {
 

@@ -11,13 +11,13 @@
 // Deterministic (the filter owns the only generator). Non-copyable: it owns the likelihood (on the
 // GPU a CUDA stream and device buffers) and the step's buffers.
 
-#include "mfot/cuda/likelihood_factory.hpp"
-#include "mfot/particle_filter.hpp"
-#include "mfot/tracking_step.hpp"
-
 #include <cstdint>
 #include <memory>
 #include <optional>
+
+#include "mfot/cuda/likelihood_factory.hpp"
+#include "mfot/particle_filter.hpp"
+#include "mfot/tracking_step.hpp"
 
 namespace mfot::service {
 

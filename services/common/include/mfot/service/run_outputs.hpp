@@ -7,6 +7,13 @@
 // process killed meanwhile leaves the last frames without them; label images appear whole or not
 // at all), so they stay off the frame-to-pose path.
 
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+
 #include "mfot/frame_t.hpp"
 #include "mfot/metrics.hpp"
 #include "mfot/object_manager.hpp"
@@ -15,13 +22,6 @@
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/run_writer.hpp"
 #include "mfot/thread_pool.hpp"
-
-#include <cstdint>
-#include <map>
-#include <memory>
-#include <optional>
-#include <span>
-#include <string>
 
 namespace mfot::service {
 
@@ -56,14 +56,14 @@ class RunOutputs {
     std::vector<Eigen::Vector3f> model;
     Pose pose;
   };
-  void write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points, const std::vector<std::int32_t>& labels,
-                     const std::vector<FittingInput>& fitting, const std::optional<frame_t>& frame,
-                     const VoxelGrid& voxel_grid);
+  void write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points,
+                     const std::vector<std::int32_t>& labels, const std::vector<FittingInput>& fitting,
+                     const std::optional<frame_t>& frame, const VoxelGrid& voxel_grid);
 
   RunOutputsOptions options_;
   MalformedCounter& malformed_;
   RunWriter writer_;
-  FittingDistanceEvaluator fitting_;           // output thread only
+  FittingDistanceEvaluator fitting_;          // output thread only
   std::unique_ptr<ThreadPool> output_split_;  // output thread only: fitting beside the label image
   // Declared after what its jobs use, so it is destroyed (finishing them) first.
   std::unique_ptr<BackgroundQueue> queue_;

@@ -4,14 +4,14 @@
 //   fitting.csv  frame,object_id,fitting_distance_m                          (thesis 4.1, 4.2)
 //   labels/<frame %06d>.png  16-bit label image aligned with the depth image (0 = none)
 
-#include "mfot/service/image_io.hpp"
-#include "mfot/types.hpp"
-#include "mfot/voxel_grid.hpp"
-
 #include <cstdint>
 #include <fstream>
 #include <span>
 #include <string>
+
+#include "mfot/service/image_io.hpp"
+#include "mfot/types.hpp"
+#include "mfot/voxel_grid.hpp"
 
 namespace mfot::service {
 

@@ -2,11 +2,11 @@
 // Per-service health: frame rate, latency percentiles, queue depth, backend and malformed-message
 // count, published on MFOT_STATUS once a second and logged.
 
-#include "mfot/service/lcm_util.hpp"
-
 #include <chrono>
 #include <deque>
 #include <string>
+
+#include "mfot/service/lcm_util.hpp"
 
 namespace mfot::service {
 

@@ -2,8 +2,8 @@
 // A tracker worker's scenes, in frame order, each released for tracking only once the worker holds
 // its object's model of the frame before (thesis 3.3-3.4: the particle filter of frame s scores
 // against the model updated with frame s-1). The merger publishes every object's model of the frame it
-// last finished (a changed model itself, an unchanged one as its frame_done_t entry) before that frame's poses. In lockstep with a window of
-// one frame, scene s is published only after those poses, so the model of s-1 is always there
+// last finished (a changed model itself, an unchanged one as its frame_done_t entry) before that frame's poses. In
+// lockstep with a window of one frame, scene s is published only after those poses, so the model of s-1 is always there
 // first; with a larger window (capture.lockstep_window) scenes run ahead of the models, and this
 // queue makes the worker wait for the model, so its results never depend on timing.
 // Steps, as the worker feeds it what arrives:
@@ -23,13 +23,13 @@
 //      group must never reach it. In a healthy run no scene is missing and nothing waits on time.
 // No LCM and no clock of its own: the caller passes the time.
 
-#include "mfot/service/convert.hpp"
-
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <optional>
+
+#include "mfot/service/convert.hpp"
 
 namespace mfot::service {
 
@@ -81,8 +81,8 @@ class TrackerSceneQueue {
   // reports, so the merger does not wait for an estimate that will not come. -1 = none.
   std::int64_t last_done() const { return done_; }
   std::size_t size() const { return scenes_.size(); }
-  std::int64_t skipped() const { return skipped_; }      // scenes dropped beyond max_scenes while holding an object
-  std::int64_t fallbacks() const { return fallbacks_; }  // scenes released after model_wait without their model
+  std::int64_t skipped() const { return skipped_; }          // scenes dropped beyond max_scenes while holding an object
+  std::int64_t fallbacks() const { return fallbacks_; }      // scenes released after model_wait without their model
   std::int64_t gaps_passed() const { return gaps_passed_; }  // scenes released after gap_wait ahead of a lost one
 
  private:
@@ -91,13 +91,13 @@ class TrackerSceneQueue {
   bool from_ended_sequence(std::int64_t frame_seq) const;
 
   TrackerSceneQueueOptions options_;
-  std::deque<Scene> scenes_;           // ascending frame_seq, all > done_ and > finished_
+  std::deque<Scene> scenes_;  // ascending frame_seq, all > done_ and > finished_
   std::int32_t object_id_ = -1;
-  std::int64_t model_frame_ = -1;      // frame of the held model (-1: none yet in this sequence)
+  std::int64_t model_frame_ = -1;  // frame of the held model (-1: none yet in this sequence)
   std::int64_t done_ = -1;
-  std::int64_t finished_ = -1;         // the newest frame the merger has finished
-  bool restarted_ = false;             // a new sequence began: an old one's late models are ignored
-  std::int64_t blocked_seq_ = -1;      // the scene waiting for its model, and since when
+  std::int64_t finished_ = -1;     // the newest frame the merger has finished
+  bool restarted_ = false;         // a new sequence began: an old one's late models are ignored
+  std::int64_t blocked_seq_ = -1;  // the scene waiting for its model, and since when
   Clock::time_point blocked_since_{};
   std::int64_t skipped_ = 0;
   std::int64_t fallbacks_ = 0;

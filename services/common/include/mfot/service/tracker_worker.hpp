@@ -18,6 +18,12 @@
 // What goes out is said to a TrackerSink (the LCM main publishes it; tests record it); the clock
 // is passed in.
 
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
 #include "mfot/frame_done_t.hpp"
 #include "mfot/heartbeat_t.hpp"
 #include "mfot/object_model_t.hpp"
@@ -27,12 +33,6 @@
 #include "mfot/service/sender_lock.hpp"
 #include "mfot/service/tracker_scene_queue.hpp"
 #include "mfot/tracker_estimate_t.hpp"
-
-#include <chrono>
-#include <cstdint>
-#include <functional>
-#include <string>
-#include <vector>
 
 namespace mfot::service {
 

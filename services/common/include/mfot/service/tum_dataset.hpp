@@ -13,10 +13,6 @@
 // Writers are crash-safe per frame: images are written under temporary names and renamed, then
 // the list lines are appended, so an interrupted run never leaves a listed but half-written frame.
 
-#include "mfot/service/frame_codec.hpp"
-#include "mfot/service/image_io.hpp"
-#include "mfot/types.hpp"
-
 #include <array>
 #include <cstdint>
 #include <cstdio>
@@ -26,6 +22,10 @@
 #include <string>
 #include <vector>
 
+#include "mfot/service/frame_codec.hpp"
+#include "mfot/service/image_io.hpp"
+#include "mfot/types.hpp"
+
 namespace mfot::service {
 
 struct DatasetError : std::runtime_error {
@@ -33,13 +33,12 @@ struct DatasetError : std::runtime_error {
 };
 
 // The TUM "ROS default" intrinsics, used when a folder has no intrinsics.txt.
-inline constexpr float kTumDefaultFx = 525.0f, kTumDefaultFy = 525.0f, kTumDefaultCx = 319.5f,
-                       kTumDefaultCy = 239.5f;
+inline constexpr float kTumDefaultFx = 525.0f, kTumDefaultFy = 525.0f, kTumDefaultCx = 319.5f, kTumDefaultCy = 239.5f;
 
 struct TumReaderOptions {
   std::string folder;
-  double depth_scale = 5000.0;           // depth PNG units per metre, > 0
-  double max_time_difference_s = 0.02;   // rgb/depth association tolerance, > 0
+  double depth_scale = 5000.0;          // depth PNG units per metre, > 0
+  double max_time_difference_s = 0.02;  // rgb/depth association tolerance, > 0
   // For a folder without intrinsics.txt (which wins when present): fx, fy, cx, cy; unset: the TUM
   // defaults.
   std::optional<std::array<float, 4>> intrinsics;
@@ -51,7 +50,7 @@ struct TumReaderOptions {
 struct TumEntry {
   double rgb_time_s = 0.0;
   double depth_time_s = 0.0;
-  std::string rgb_path;    // absolute or relative to the working directory
+  std::string rgb_path;  // absolute or relative to the working directory
   std::string depth_path;
 };
 
@@ -93,9 +92,9 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const std::ve
 // ---- ground truth ------------------------------------------------------------------------------
 
 struct GroundTruthObject {
-  int id = 0;            // >= 1
-  bool is_hand = false;  // the hand/gripper that moves objects (scored separately)
-  Pose pose;             // object -> camera, metres
+  int id = 0;                                               // >= 1
+  bool is_hand = false;                                     // the hand/gripper that moves objects (scored separately)
+  Pose pose;                                                // object -> camera, metres
   Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // object frame, unit; zero = none
 };
 
@@ -103,7 +102,7 @@ struct GroundTruthFrame {
   std::int64_t frame = 0;  // index in the sequence
   std::int64_t utime = 0;  // capture time, microseconds
   std::vector<GroundTruthObject> objects;
-  Image16 labels;          // per-pixel object id, 0 = background; may be empty (no labels)
+  Image16 labels;  // per-pixel object id, 0 = background; may be empty (no labels)
 };
 
 // Writes poses.csv and labels/ into `folder` (created if needed; an existing poses.csv is an
@@ -147,9 +146,9 @@ std::string label_file_name(std::int64_t frame);
 // ---- writer ------------------------------------------------------------------------------------
 
 struct TumWriterOptions {
-  std::string folder;                // created; must not already contain rgb.txt
-  double depth_scale = 5000.0;       // depth PNG units per metre, > 0
-  bool write_groundtruth = true;     // create groundtruth/ (poses.csv, labels/)
+  std::string folder;             // created; must not already contain rgb.txt
+  double depth_scale = 5000.0;    // depth PNG units per metre, > 0
+  bool write_groundtruth = true;  // create groundtruth/ (poses.csv, labels/)
 
   void validate() const;
 };

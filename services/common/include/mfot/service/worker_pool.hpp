@@ -48,8 +48,8 @@ class WorkerPool {
   using Clock = std::chrono::steady_clock;
 
   struct Worker {
-    std::int64_t instance = 0;         // the process holding this id
-    std::string host;                  // where it runs
+    std::int64_t instance = 0;  // the process holding this id
+    std::string host;           // where it runs
     Clock::time_point last_seen;
     std::int32_t object_id = -1;       // as assigned by the merger
     Clock::time_point told_at;         // when it was last sent its assignment, a move or a retirement

@@ -35,15 +35,15 @@
 //     non-stale frame comes before the last evaluated frame the object has points in.
 //  5. fitting.csv is averaged over objects per frame and over frames.
 
-#include "mfot/evaluate/csv_table.hpp"
-#include "mfot/metrics.hpp"
-#include "mfot/types.hpp"
-
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
+
+#include "mfot/evaluate/csv_table.hpp"
+#include "mfot/metrics.hpp"
+#include "mfot/types.hpp"
 
 namespace mfot::evaluate {
 
@@ -61,7 +61,7 @@ struct GroundTruthPoseRow {
   std::int64_t utime = 0;
   std::int32_t id = 0;
   bool is_hand = false;
-  Pose pose;  // object -> camera
+  Pose pose;                                                // object -> camera
   Eigen::Vector3f symmetry_axis = Eigen::Vector3f::Zero();  // object frame; zero: none (optional columns)
 };
 
@@ -97,23 +97,23 @@ struct EvaluationOptions {
 
 struct FrameResult {
   std::int64_t frame = 0;
-  bool segmented = false;           // both label images exist
-  std::size_t points = 0;           // evaluated points (step 1)
-  double accuracy = 0.0;            // with the sequence-wide mapping; meaningful when segmented
+  bool segmented = false;  // both label images exist
+  std::size_t points = 0;  // evaluated points (step 1)
+  double accuracy = 0.0;   // with the sequence-wide mapping; meaningful when segmented
   bool has_fitting = false;
   double fitting_mean_m = 0.0;
-  int predicted_objects = 0;        // rows in poses.csv for this frame
+  int predicted_objects = 0;  // rows in poses.csv for this frame
 };
 
 struct ObjectResult {
   std::int32_t groundtruth_id = 0;
   bool is_hand = false;
-  std::int32_t predicted_id = 0;    // 0: no predicted id maps to this object
+  std::int32_t predicted_id = 0;                                         // 0: no predicted id maps to this object
   std::int64_t groundtruth_first_frame = 0, groundtruth_last_frame = 0;  // evaluated frames with its points
   std::int64_t predicted_first_frame = -1, predicted_last_frame = -1;    // last non-stale; -1: none
   bool lost = false;
-  bool symmetric = false;           // the ground truth gives a symmetry axis (see PoseError)
-  std::size_t stale_frames = 0;     // stale rows among the compared frames
+  bool symmetric = false;            // the ground truth gives a symmetry axis (see PoseError)
+  std::size_t stale_frames = 0;      // stale rows among the compared frames
   std::vector<std::int64_t> frames;  // compared frames, the first is t0
   std::vector<PoseError> errors;     // per compared frame (0 at t0)
   PoseErrorSummary summary;          // over the frames after t0
@@ -125,18 +125,18 @@ struct RunResult {
   std::vector<FrameResult> frames;  // every frame with labels, poses or fitting, sorted
   std::size_t segmented_frames = 0;
   std::size_t groundtruth_frames_without_prediction = 0;  // gt label frames the run has no labels for
-  std::size_t points = 0;          // scene points evaluated over all frames
-  double accuracy = 1.0;           // over scene points (thesis 4.3)
-  std::size_t pixels = 0;          // measured pixels evaluated over all frames
-  double pixel_accuracy = 1.0;     // over all measured pixels, its own one-to-one mapping
-  std::map<std::int32_t, std::int32_t> mapping;  // predicted id -> gt id (SegmentationAccuracy::kUnmatched)
-  std::vector<SegmentationAccuracy::Overlap> overlaps;  // scene points per (predicted, gt) pair over all frames
-  std::string depth_mask;                        // directory of the depth images used, or "none"
-  std::vector<ObjectResult> objects;             // one per ground-truth id with points (step 4)
-  std::size_t tracks_lost = 0;                   // lost objects that are not hands
+  std::size_t points = 0;                                 // scene points evaluated over all frames
+  double accuracy = 1.0;                                  // over scene points (thesis 4.3)
+  std::size_t pixels = 0;                                 // measured pixels evaluated over all frames
+  double pixel_accuracy = 1.0;                            // over all measured pixels, its own one-to-one mapping
+  std::map<std::int32_t, std::int32_t> mapping;           // predicted id -> gt id (SegmentationAccuracy::kUnmatched)
+  std::vector<SegmentationAccuracy::Overlap> overlaps;    // scene points per (predicted, gt) pair over all frames
+  std::string depth_mask;                                 // directory of the depth images used, or "none"
+  std::vector<ObjectResult> objects;                      // one per ground-truth id with points (step 4)
+  std::size_t tracks_lost = 0;                            // lost objects that are not hands
   std::size_t hands_lost = 0;
   bool has_fitting = false;
-  double fitting_mean_m = 0.0;                   // mean over frames of the per-frame mean
+  double fitting_mean_m = 0.0;  // mean over frames of the per-frame mean
   std::vector<TimingColumn> timing;
 };
 

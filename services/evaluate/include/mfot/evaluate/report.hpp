@@ -12,12 +12,12 @@
 //                         occurs in (a seam between touching objects shows in most frames)
 // and once: summary.json (every number of the table and more) and plots.json.
 
-#include "mfot/evaluate/evaluation.hpp"
-
 #include <filesystem>
 #include <ostream>
 #include <string>
 #include <vector>
+
+#include "mfot/evaluate/evaluation.hpp"
 
 namespace mfot::evaluate {
 
