@@ -136,6 +136,21 @@ class RocTest(unittest.TestCase):
         self.assertEqual(lines[-1], "targets: FAIL (0 of 5 met)")
         self.assertTrue(any("3 development seeds" in line for line in lines))
 
+    def test_a_run_stopped_at_the_timeout_fails_every_measure_in_its_classes(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            truth = Path(tmp) / "run" / "groundtruth"
+            truth.mkdir(parents=True)
+            (truth / "scene.yaml").write_text("motion: spin\nmover: hand\nobjects:\n  - {id: 1, shape: can, moved: true}\n"
+                                              "  - {id: 2, shape: box}\n")
+            row = self.module.unfinished_run("procedural", 1001, Path(tmp), 300)
+        self.assertEqual(row["lost"], 2)
+        self.assertEqual(self.module.run_measures(row), {"segmentation": False, "rotation": False,
+                                                          "translation": False, "no_frame_over": False})
+        lines = self.module.procedural_report([row])
+        self.assertIn("| spin | 1 | 0 % | 0 % | 0 % | 0 % |", lines)
+        self.assertIn("| can | 1 | 0 % | 0 % | 0 % | 0 % |", lines)
+        self.assertTrue(any("1 acceptance seeds" in line for line in lines))
+
     def test_confidence_pairs_join_poses_and_errors_with_the_threshold_given(self):
         with tempfile.TemporaryDirectory() as tmp:
             run = Path(tmp)
