@@ -6,8 +6,6 @@
 // MFOT_PILE_CONFIG=FILE lays a config over the defaults, MFOT_PILE_DEBUG=1 prints which objects hold each body.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -16,6 +14,7 @@
 #include <cstdlib>
 #include <map>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "mfot/object_discovery.hpp"
@@ -414,22 +413,22 @@ TEST(PileDiscovery, APileAcrossTheTableStandsOnIt) {
   EXPECT_LE(r.unassigned, 0.02f);
 }
 
-// Development harness: the first frame of procedural scenes (seeds from MFOT_DEV_SEEDS "a-b"), each body's voxels
-// over the objects; prints bodies split (a second object holds >= 10 % of it) or not found, by shape.
-TEST(PileDiscovery, DISABLED_DevProceduralFirstFrames) {
+// The other side of a part's size (merger.discovery.min_part_points): the first frame of procedural development
+// scenes 1-20 (122 bodies: boxes, cans, bottles, mugs) through the shipped config. Every body is found and no
+// bottle is cut in two: the generator's neck and cap differ in colour from the body and meet it at a concave
+// shoulder, like a small box on a book in a pile, so only the part size keeps them together (150 cut 13 of these 26
+// bottles, 52 of 94 over seeds 1-60; 400 none).
+TEST(PileDiscovery, ProceduralFirstFramesKeepBottlesWhole) {
   const char* overlay = std::getenv("MFOT_PILE_CONFIG");
   const YAML::Node config = overlay != nullptr ? service::load_config_file(overlay) : service::merged_over_defaults({});
   const auto preprocess = service::load_preprocess_config(config);
   const auto merger = service::load_merger_config(config);
-  int first = 1, last = 40;
-  if (const char* seeds = std::getenv("MFOT_DEV_SEEDS")) std::sscanf(seeds, "%d-%d", &first, &last);
-  std::map<std::string, std::array<int, 3>> by_shape;  // bodies, found, split
-  double ms_total = 0.0;
-  for (int seed = first; seed <= last; ++seed) {
-    sim::SimulatorOptions so;
-    so.scenario.name = "procedural";
-    so.scenario.seed = static_cast<std::uint64_t>(seed);
-    const sim::Simulator simulator(so);
+  std::map<std::string, std::array<int, 3>> by_shape;  // bodies, found, split (a second object holds >= 10 %)
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    sim::SimulatorOptions options;
+    options.scenario.name = "procedural";
+    options.scenario.seed = seed;
+    const sim::Simulator simulator(options);
     const sim::RenderedFrame frame = simulator.render(0);
     Preprocessor preprocessor(preprocess.preprocessor);
     const SceneCloud& cloud = preprocessor.process(sim::image_view(frame));
@@ -437,124 +436,40 @@ TEST(PileDiscovery, DISABLED_DevProceduralFirstFrames) {
     points.positions = cloud.positions;
     points.colors = cloud.colors;
     ObjectManager manager(merger.manager, make_object_discovery(merger.manager.discovery));
-    const auto t0 = std::chrono::steady_clock::now();
     const std::vector<std::int32_t> labels = manager.process(points, cloud.cluster, {}).labels;
-    ms_total += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::map<int, int> truth_size, object_size;
-    std::map<int, std::map<int, int>> overlap;
+    std::map<int, std::map<int, int>> overlap;  // body -> object -> voxels
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       const int truth =
           frame.labels[static_cast<std::size_t>(cloud.pixel_v[i]) * frame.intrinsics.width + cloud.pixel_u[i]];
       if (labels[i] != 0) ++object_size[labels[i]];
-      if (truth == 0 || truth > 100) continue;
+      if (truth == 0 || truth > 100) continue;  // the table, the mover
       ++truth_size[truth];
       if (labels[i] != 0) ++overlap[truth][labels[i]];
     }
     for (const auto& object : simulator.summary().objects) {
       const int size = truth_size[object.id];
-      if (size < 50) continue;
+      if (size < 50) continue;  // out of view or hidden
       double best = 0.0;
-      int second = 0, top = 0;
+      int top = 0, second = 0;
       for (const auto& [label, count] : overlap[object.id]) {
         best = std::max(best, static_cast<double>(count) / (size + object_size[label] - count));
-        if (count > top) second = top, top = count;
-        else second = std::max(second, count);
+        second = std::max(second, std::min(top, count));
+        top = std::max(top, count);
       }
       auto& row = by_shape[object.shape];
       ++row[0];
       row[1] += best >= 0.5 ? 1 : 0;
-      const bool split = second >= 0.1 * size;
-      row[2] += split ? 1 : 0;
-      if (split || best < 0.5) {
-        std::printf("[dev] seed %d body %d %s (%d voxels): best IoU %.2f, second object %d%s\n", seed, object.id,
-                    object.shape.c_str(), size, best, second, split ? " SPLIT" : "");
+      row[2] += second >= 0.1 * size ? 1 : 0;
+      EXPECT_GE(best, 0.5) << "seed " << seed << " body " << object.id << " (" << object.shape << ") not found";
+      if (object.shape == "bottle") {
+        EXPECT_LT(second, 0.1 * size) << "seed " << seed << " bottle " << object.id << " cut";
       }
     }
   }
   for (const auto& [shape, row] : by_shape) {
-    std::printf("[dev] %s: %d bodies, %d found, %d split\n", shape.c_str(), row[0], row[1], row[2]);
+    std::printf("[procedural first frames] %s: %d bodies, %d found, %d split\n", shape.c_str(), row[0], row[1], row[2]);
   }
-  std::printf("[dev] mean first frame %.1f ms\n", ms_total / (last - first + 1));
-}
-
-// Development harness: every LCCP segment (min_part_points 1) of every cluster of the first frame of procedural
-// scenes (MFOT_DEV_SEEDS) and of the procedural piles (seeds 1-12), with its points, principal extents (cm) and
-// whether it is the largest segment of the body most of it shows (keep) or a piece of it (join).
-void dump_segments(const char* tag, int seed, const sim::RenderedFrame& frame, const YAML::Node& config,
-                   const Eigen::Isometry3f& to_camera) {
-  const Eigen::Isometry3f to_world = to_camera.inverse();
-  const auto preprocess = service::load_preprocess_config(config);
-  auto merger = service::load_merger_config(config);
-  merger.manager.discovery.min_part_points = 1;
-  merger.manager.discovery.method = DiscoveryMethod::kLccp;
-  Preprocessor preprocessor(preprocess.preprocessor);
-  const SceneCloud& cloud = preprocessor.process(sim::image_view(frame));
-  const auto discovery = make_object_discovery(merger.manager.discovery);
-  std::map<int, std::vector<int>> clusters;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (cloud.cluster[i] >= 0) clusters[cloud.cluster[i]].push_back(static_cast<int>(i));
-  }
-  for (const auto& [c, members] : clusters) {
-    std::vector<Eigen::Vector3f> pos;
-    std::vector<Rgb8> col;
-    for (const int i : members) pos.push_back(cloud.positions[i]), col.push_back(cloud.colors[i]);
-    std::vector<int> part;
-    const int parts = discovery->split(pos, col, part);
-    std::vector<std::map<int, int>> truth_in(parts);
-    std::vector<std::vector<int>> pts(parts);
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      const int i = members[k];
-      const int truth =
-          frame.labels[static_cast<std::size_t>(cloud.pixel_v[i]) * frame.intrinsics.width + cloud.pixel_u[i]];
-      ++truth_in[part[k]][truth];
-      pts[part[k]].push_back(static_cast<int>(k));
-    }
-    std::map<int, std::pair<int, int>> largest;  // body -> (count, part)
-    std::vector<int> body(parts);
-    for (int p = 0; p < parts; ++p) {
-      int top = 0;
-      for (const auto& [t, n] : truth_in[p]) {
-        if (n > top) top = n, body[p] = t;
-      }
-      auto& l = largest[body[p]];
-      if (top > l.first) l = {top, p};
-    }
-    for (int p = 0; p < parts; ++p) {
-      Eigen::Vector3f mean = Eigen::Vector3f::Zero();
-      for (const int k : pts[p]) mean += pos[k];
-      mean /= static_cast<float>(pts[p].size());
-      Eigen::Matrix3f cov = Eigen::Matrix3f::Zero();
-      for (const int k : pts[p]) cov += (pos[k] - mean) * (pos[k] - mean).transpose();
-      cov /= static_cast<float>(pts[p].size());
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);
-      const Eigen::Vector3f ev = eig.eigenvalues().cwiseMax(0.f).cwiseSqrt() * 100.f * 3.4641f;  // uniform extent
-      std::vector<float> z;
-      for (const int k : pts[p]) z.push_back((to_world * pos[k]).z());
-      std::sort(z.begin(), z.end());
-      std::printf("[seg] %s %d cluster %d part %d body %d %s points %zu extents %.1f %.1f %.1f low %.1f high %.1f\n",
-                  tag, seed, c, p, body[p], largest[body[p]].second == p ? "keep" : "join", pts[p].size(), ev[2],
-                  ev[1], ev[0], 100.f * z[z.size() / 20], 100.f * z.back());
-    }
-  }
-}
-
-TEST(PileDiscovery, DISABLED_DevSegments) {
-  const char* overlay = std::getenv("MFOT_PILE_CONFIG");
-  const YAML::Node config = overlay != nullptr ? service::load_config_file(overlay) : service::merged_over_defaults({});
-  int first = 1, last = 40;
-  if (const char* seeds = std::getenv("MFOT_DEV_SEEDS")) std::sscanf(seeds, "%d-%d", &first, &last);
-  for (int seed = first; seed <= last; ++seed) {
-    sim::SimulatorOptions so;
-    so.scenario.name = "procedural";
-    so.scenario.seed = static_cast<std::uint64_t>(seed);
-    const sim::Simulator simulator(so);
-    dump_segments("procedural", seed, simulator.render(0), config, simulator.world_to_camera().isometry());
-  }
-  for (int seed = 1; seed <= 12; ++seed) {
-    dump_segments("pile", seed, render(random_pile(static_cast<std::uint64_t>(seed), 20, seed % 2 == 0),
-                                       static_cast<std::uint64_t>(seed)), config, world_to_camera());
-  }
-  for (int seed = 1; seed <= 3; ++seed) dump_segments("pile15", seed, render(pile(), seed), config, world_to_camera());
 }
 
 }  // namespace
