@@ -1,4 +1,4 @@
-// Point-to-point ICP refinement of a pose estimate, paired in space or in colour and space (steps in the header).
+// Point-to-point ICP refinement of a pose estimate (steps in the header).
 
 #include "mfot/icp_refinement.hpp"
 
@@ -32,18 +32,8 @@ void IcpRefinementOptions::validate(const std::string& owner) const {
   if (!(max_points >= 3 && max_points <= 1000000)) {
     throw std::invalid_argument(owner + ".max_points must be in [3, 1000000], got " + std::to_string(max_points));
   }
-  if (!(final_iterations >= 0 && final_iterations <= iterations)) {
-    throw std::invalid_argument(owner + ".final_iterations must be in [0, iterations = " + std::to_string(iterations) +
-                                "], got " + std::to_string(final_iterations));
-  }
-  if (!(final_points >= 3 && final_points <= 1000000)) {
-    throw std::invalid_argument(owner + ".final_points must be in [3, 1000000], got " + std::to_string(final_points));
-  }
   if (!(anchor_weight >= 1.f && anchor_weight <= 1000.f)) {
     throw std::invalid_argument(owner + ".anchor_weight must be in [1, 1000], got " + std::to_string(anchor_weight));
-  }
-  if (!(color_weight >= 0.f && color_weight <= 10.f)) {
-    throw std::invalid_argument(owner + ".color_weight must be in [0, 10], got " + std::to_string(color_weight));
   }
 }
 
@@ -67,19 +57,6 @@ constexpr float kBoundSlack = 1e-6f;
 std::size_t sample_stride(std::size_t size, int max_points) {
   const auto points = static_cast<std::size_t>(max_points);
   return std::max<std::size_t>(1, (size + points - 1) / points);
-}
-
-// Half the squared difference of two dense SMR vectors: in [0, 1] for vectors summing to 1.
-float color_difference(const std::array<float, kSmrBins>& a, const std::array<float, kSmrBins>& b) {
-  float sum = 0.f;
-  for (int k = 0; k < kSmrBins; ++k) sum += (a[k] - b[k]) * (a[k] - b[k]);
-  return 0.5f * sum;
-}
-
-void dense_colors(std::span<const SmrFeature> features, std::vector<std::array<float, kSmrBins>>& out) {
-  out.clear();
-  out.reserve(features.size());
-  for (const SmrFeature& f : features) out.push_back(f.dense());
 }
 
 // The rotation and translation minimising sum w_i |R m_i + t - s_i|^2 (Arun et al. 1987), in double; no
@@ -155,61 +132,19 @@ int IcpRefinement::pair(const Eigen::Vector3f& local, std::span<const Eigen::Vec
   return nearest;
 }
 
-int IcpRefinement::pair_colored(const Eigen::Vector3f& local, const std::array<float, kSmrBins>& color,
-                                std::span<const Eigen::Vector3f> model, bool use_last, PairBound& bound, float& cost) {
-  const float scale = options_.color_weight * options_.max_distance;
-  const int nearest = pair(local, model, use_last ? bound.nearest : -1, bound);
-  bound.nearest = nearest;
-  if (nearest < 0) return -1;  // no model point within max_distance
-  // Every other model point lies at least others away, so costs at least others^2: where the nearest point's cost
-  // is no more, it is the least (most points, those inside a patch of one colour, end here).
-  const auto n = static_cast<std::size_t>(nearest);
-  cost = (model[n] - local).squaredNorm() + scale * scale * color_difference(color, model_colors_[n]);
-  const float others = bound.others - (local - bound.query).norm();
-  if (others > 0.f && cost <= others * others) return nearest;
-  candidates_.clear();
-  model_hash_.radius_search(local, options_.max_distance, candidates_);
-  int best = -1;
-  for (const int j : candidates_) {  // ascending: ties go to the lower index
-    const auto k = static_cast<std::size_t>(j);
-    const float c = (model[k] - local).squaredNorm() + scale * scale * color_difference(color, model_colors_[k]);
-    if (best < 0 || c < cost) {
-      best = j;
-      cost = c;
-    }
-  }
-  return best;
-}
-
-void IcpRefinement::use_colors(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                               std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features) {
-  if ((!scene_features.empty() && scene_features.size() != scene.size()) ||
-      (!model_features.empty() && model_features.size() != model.size())) {
-    throw std::invalid_argument("IcpRefinement: a colour feature span's size differs from its points'");
-  }
-  colored_ = options_.color_weight > 0.f && !scene_features.empty() && !model_features.empty();
-  if (!colored_) return;
-  dense_colors(model_features, model_colors_);  // the features may change where the points do not
-  dense_colors(scene_features, scene_colors_);
-}
-
 void IcpRefinement::sample(std::span<const Eigen::Vector3f> scene, int max_points) {
   const std::size_t stride = sample_stride(scene.size(), max_points);
   sample_.clear();
-  sample_colors_.clear();
-  for (std::size_t i = 0; i < scene.size(); i += stride) {
-    sample_.push_back(scene[i]);
-    if (colored_) sample_colors_.push_back(scene_colors_[i]);
-  }
+  for (std::size_t i = 0; i < scene.size(); i += stride) sample_.push_back(scene[i]);
 }
 
-bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
+bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model,
                             Eigen::Isometry3f& pose, IcpResult& result) {
   result.sampled = sample.size();
   bounds_.resize(sample.size());
   const auto needed =
       static_cast<std::size_t>(std::ceil(options_.min_paired_share * static_cast<float>(sample.size())));
-  for (int iteration = 0; iteration < count; ++iteration) {
+  for (int iteration = 0; iteration < options_.iterations; ++iteration) {
     const Eigen::Isometry3f to_object = pose.inverse();
     paired_model_.clear();
     paired_scene_.clear();
@@ -219,10 +154,8 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
     for (std::size_t i = 0; i < sample.size(); ++i) {
       const Eigen::Vector3f& p = sample[i];
       const Eigen::Vector3f local = to_object * p;
-      float cost = 0.f;
       const int last = iteration > 0 ? previous_nearest_[i] : -1;
-      const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, iteration > 0, bounds_[i], cost)
-                                   : pair(local, model, last, bounds_[i]);
+      const int nearest = pair(local, model, last, bounds_[i]);
       nearest_.push_back(nearest);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
@@ -248,26 +181,17 @@ void IcpRefinement::use_model(std::span<const Eigen::Vector3f> model) {
 
 float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
                                  const Pose& pose, int max_points) {
-  return unexplained(scene, {}, model, {}, pose, max_points);
-}
-
-float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                                 std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
-                                 const Pose& pose, int max_points) {
   if (max_points < 3) throw std::invalid_argument("IcpRefinement::unexplained needs max_points >= 3");
   if (scene.empty() || model.empty()) return 1.f;
   use_model(model);
-  use_colors(scene, scene_features, model, model_features);
   sample(scene, max_points);
   const Eigen::Isometry3f to_object = pose.isometry().inverse();
   const float cap = options_.max_distance * options_.max_distance;
   double sum = 0.0;
-  PairBound bound;
   for (std::size_t i = 0; i < sample_.size(); ++i) {
     float cost = 0.f;
     const Eigen::Vector3f local = to_object * sample_[i];
-    const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, false, bound, cost)
-                                 : model_hash_.nearest(local, options_.max_distance, &cost);
+    const int nearest = model_hash_.nearest(local, options_.max_distance, &cost);
     sum += nearest >= 0 ? std::min(cost / cap, 1.f) : 1.f;
   }
   return static_cast<float>(sum / static_cast<double>(sample_.size()));
@@ -275,27 +199,13 @@ float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::sp
 
 IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
                                 const Pose& start) {
-  return refine(scene, {}, model, {}, start);
-}
-
-IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                                std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
-                                const Pose& start) {
   IcpResult result;
   result.pose = start;
   if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
   use_model(model);
-  use_colors(scene, scene_features, model, model_features);
   Eigen::Isometry3f pose = start.isometry();
-  const int sparse_iterations = options_.iterations - options_.final_iterations;
-  if (sparse_iterations > 0) {
-    sample(scene, options_.max_points);
-    if (!iterate(sample_, model, sparse_iterations, pose, result)) return result;
-  }
-  if (options_.final_iterations > 0) {
-    sample(scene, options_.final_points);
-    if (!iterate(sample_, model, options_.final_iterations, pose, result)) return result;
-  }
+  sample(scene, options_.max_points);
+  if (!iterate(sample_, model, pose, result)) return result;
   const Pose refined = Pose::from_isometry(pose);
   if ((refined.translation - start.translation).norm() > options_.max_translation ||
       refined.rotation.angularDistance(start.rotation) > options_.max_rotation) {

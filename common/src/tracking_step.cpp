@@ -40,7 +40,7 @@ void TrackingStepOptions::validate() const {
     throw std::invalid_argument("TrackingStepOptions.hold_occluded_share must be in [0, 1], got " +
                                 std::to_string(hold_occluded_share));
   }
-  // The hold's occlusion test is what indexes the scene's rays and measures the occluded share; three settings
+  // The hold's occlusion test is what indexes the scene's rays and measures the occluded share; two settings
   // read them.
   const auto needs_occlusion_test = [&](bool used, const std::string& field, const std::string& why) {
     if (used && !(hold_occluded_share > 0.f)) {
@@ -55,12 +55,6 @@ void TrackingStepOptions::validate() const {
   }
   isolated_motion.validate("TrackingStepOptions.isolated_motion");
   icp.validate("TrackingStepOptions.icp");
-  if (follow_isolated && !(exclude_claimed_radius > 0.f)) {
-    throw std::invalid_argument(
-        "TrackingStepOptions.follow_isolated needs exclude_claimed_radius > 0: the other objects' points near an "
-        "object "
-        "are what tells it is isolated");
-  }
   if (!(hold_min_scored_share >= 0.f && hold_min_scored_share <= 1.f)) {
     throw std::invalid_argument("TrackingStepOptions.hold_min_scored_share must be in [0, 1], got " +
                                 std::to_string(hold_min_scored_share));
@@ -75,8 +69,6 @@ void TrackingStepOptions::validate() const {
   }
   needs_occlusion_test(last_pose_check_occluded_share > 0.f, "last_pose_check_occluded_share",
                        "the occluded share is measured there");
-  needs_occlusion_test(companion_pose_check, "companion_pose_check",
-                       "the seen-through share needs the scene's rays, indexed there");
   require_in_range("TrackingStepOptions", "companion_turn_min", companion_turn_min, 0.0, std::numbers::pi, false);
   require_in_range("TrackingStepOptions", "companion_turn_min_cosine", companion_turn_min_cosine, -1.0, 1.0, false);
   require_in_range("TrackingStepOptions", "companion_turn_max_kept", companion_turn_max_kept, 0.0, 1.0, false);
@@ -94,7 +86,6 @@ TrackingStep::TrackingStep(const TrackingStepOptions& options)
       last_pose_icp_([&] {
         IcpRefinementOptions sparse = options.icp;
         sparse.max_points = options.last_pose_check_points;
-        sparse.final_iterations = 0;
         return sparse;
       }()),
       claimed_hash_(std::max(options.exclude_claimed_radius, 1e-3f)),
@@ -110,9 +101,9 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                        Likelihood& likelihood) {
   TrackingStepResult result;
   const Pose last = filter.estimate();
-  const bool tests_occlusion = options_.hold_occluded_share > 0.f || options_.exclude_occluders;
-  if (tests_occlusion) occlusion_.set_model(model.cloud.positions, last);  // once for both questions
-  if (options_.hold_occluded_share > 0.f) {
+  const bool tests_occlusion = options_.hold_occluded_share > 0.f;
+  if (tests_occlusion) {
+    occlusion_.set_model(model.cloud.positions, last);  // once for both questions (steps 1 and 3)
     occlusion_.set_scene(scene.positions);
     result.occluded_share = occlusion_.occluded_share();
     if (result.occluded_share >= options_.hold_occluded_share) {
@@ -124,7 +115,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
     }
   }
   select_hypothesis_points(scene, model_box, last, options_.hypothesis, hypothesis_);
-  if (options_.exclude_occluders && !result.hold_expired) {
+  if (tests_occlusion && !result.hold_expired) {
     result.occluders_removed = occlusion_.remove_occluders(hypothesis_);
   }
   if (options_.exclude_claimed_radius > 0.f && !claimed_points_.empty()) {
@@ -144,22 +135,20 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
   }
   hypothesis_.features = compute_smr(hypothesis_.colors, options_.smr);
   result.hypothesis_points = hypothesis_.points.size();
-  result.isolated = options_.follow_isolated && claimed_points_.empty();
+  result.isolated = options_.exclude_claimed_radius > 0.f && claimed_points_.empty();
   const PoseVector* companion = companion_motion_ ? &*companion_motion_ : nullptr;
   result.companion = companion != nullptr;
   result.estimate = filter.step(hypothesis_, likelihood,
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
-    const IcpResult icp =
-        icp_.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions, model.features, result.estimate);
+    const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
   // 5c / 5d: the last estimate, where no companion moves the object, else moved by the companion's motion.
-  const bool checks_start =
-      result.companion ? options_.companion_pose_check : options_.last_pose_check_occluded_share > 0.f;
-  if (checks_start && result.occluded_share >= options_.last_pose_check_occluded_share) {
+  if (options_.last_pose_check_occluded_share > 0.f &&
+      result.occluded_share >= options_.last_pose_check_occluded_share) {
     const Pose start = result.companion ? apply_increment(last, *companion) : last;
     if (const std::optional<Pose> kept = better_start(model, start, result.estimate)) {
       result.estimate = filter.replace_estimate(*kept);
@@ -188,14 +177,13 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
   const std::span<const Eigen::Vector3f> points = model.cloud.positions;
   Pose start = start_pose;
   if (options_.icp.iterations > 0) {
-    const IcpResult refined =
-        last_pose_icp_.refine(hypothesis_.points, hypothesis_.features, points, model.features, start_pose);
+    const IcpResult refined = last_pose_icp_.refine(hypothesis_.points, points, start_pose);
     if (refined.refined) start = refined.pose;
   }
   // Both shares count points (scene points not on the model, model points where the view sees past them).
   const int n = options_.last_pose_check_points;
   const auto unexplained = [&](const Pose& pose) {
-    return last_pose_icp_.unexplained(hypothesis_.points, hypothesis_.features, points, model.features, pose, n) +
+    return last_pose_icp_.unexplained(hypothesis_.points, points, pose, n) +
            occlusion_.seen_through_share(points, pose, n);
   };
   if (unexplained(start) < unexplained(estimate)) return start;

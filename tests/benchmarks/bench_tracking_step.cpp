@@ -75,11 +75,8 @@ int main(int argc, char** argv) {
 
   mfot::ParticleFilterOptions thesis;
   thesis.num_particles = 100;
-  mfot::ParticleFilterOptions refine = thesis;
-  refine.refine_rounds = 2;
   mfot::TrackingStepOptions isolated;  // nothing else near: every frame steps with isolated_motion
   isolated.exclude_claimed_radius = 0.01f;
-  isolated.follow_isolated = true;
   isolated.isolated_motion = mfot::StepMotion{0.75f, 2};
   mfot::TrackingStepOptions isolated_icp = isolated;
   isolated_icp.icp.iterations = 5;
@@ -87,21 +84,15 @@ int main(int argc, char** argv) {
   isolated_icp.icp.max_points = 200;
   mfot::TrackingStepOptions icp_only;  // the thesis's step refined (an object with a hand or neighbour near)
   icp_only.icp = isolated_icp.icp;
-  // configs/default.yaml's refinement: 10 iterations on up to 2000 points; and the cheaper one, whose last 3 take them.
+  // The services' refinement: 10 iterations on up to 2000 points.
   mfot::TrackingStepOptions dense_icp = icp_only;
   dense_icp.icp.iterations = 10;
   dense_icp.icp.max_points = 2000;
-  mfot::TrackingStepOptions final_dense_icp = icp_only;
-  final_dense_icp.icp.iterations = 10;
-  final_dense_icp.icp.final_iterations = 3;
-  final_dense_icp.icp.final_points = 2000;
   mfot::TrackingStepOptions isolated_dense_icp = isolated;
   isolated_dense_icp.icp = dense_icp.icp;
   const Row rows[] = {{"thesis motion model", thesis, {}},
                       {"thesis motion model, ICP 5 on 200 points (others near)", thesis, icp_only},
                       {"thesis motion model, ICP 10 on 2000 points (others near)", thesis, dense_icp},
-                      {"thesis motion model, ICP 10, the last 3 on 2000 points", thesis, final_dense_icp},
-                      {"refine_rounds 2", refine, {}},
                       {"isolated: predicted 0.75, refine 2", thesis, isolated},
                       {"isolated: predicted 0.75, refine 2, ICP 5 on 200 points", thesis, isolated_icp},
                       {"isolated: predicted 0.75, refine 2, ICP 10 on 2000 points", thesis, isolated_dense_icp}};
@@ -130,7 +121,7 @@ int main(int argc, char** argv) {
       confidence.add(ms_since(t1));
       points.add(static_cast<double>(r.hypothesis_points));
       if (!(c >= 0.f)) return 1;  // keeps the call
-      if (r.isolated != row.step.follow_isolated) return 1;
+      if (r.isolated != (row.step.exclude_claimed_radius > 0.f)) return 1;
       icp_refined += r.icp_refined ? 1 : 0;
     }
     std::printf("| %s | %.0f | %.3f | %.3f | %.0f %% | %d |\n", row.name, points.median(), total.median(),

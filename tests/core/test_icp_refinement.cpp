@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -11,7 +10,6 @@
 #include "expect_invalid_argument.hpp"
 #include "mfot/icp_refinement.hpp"
 #include "mfot/particle_filter.hpp"
-#include "mfot/smr_feature.hpp"
 #include "synthetic_object.hpp"
 
 namespace mfot {
@@ -97,18 +95,17 @@ TEST(IcpRefinement, KeepsTheStartWhenTooFewPointsPair) {
 }
 
 // The box seen with 3 mm of depth noise (seeded draws): a 20-point sample leaves the fit's noise in the
-// estimate; the same iterations ending on every point average it out.
-TEST(IcpRefinement, TheFinalIterationsOnADenseSampleAverageTheNoiseOut) {
+// estimate; the same iterations on every point (max_points 2000, the services' constant) average it out.
+TEST(IcpRefinement, ADenseSampleAveragesTheNoiseOut) {
   const SeenBox box;
   const Pose start = box.start();
   IcpRefinementOptions sparse = iterations(10);
   sparse.max_points = 20;
   sparse.min_paired_share = 0.f;
-  IcpRefinementOptions dense_end = sparse;
-  dense_end.final_iterations = 3;
-  dense_end.final_points = 2000;
+  IcpRefinementOptions dense = sparse;
+  dense.max_points = 2000;
   IcpRefinement sparse_icp(sparse);
-  IcpRefinement dense_icp(dense_end);
+  IcpRefinement dense_icp(dense);
   constexpr int kDraws = 8;
   float sparse_deg = 0.f, dense_deg = 0.f, sparse_worst = 0.f, dense_worst = 0.f;
   for (int draw = 0; draw < kDraws; ++draw) {
@@ -121,7 +118,7 @@ TEST(IcpRefinement, TheFinalIterationsOnADenseSampleAverageTheNoiseOut) {
     ASSERT_TRUE(s.refined);
     ASSERT_TRUE(d.refined);
     EXPECT_EQ(s.sampled, 20u);
-    EXPECT_EQ(d.sampled, noisy.size());  // the last iterations took every point (fewer than final_points)
+    EXPECT_EQ(d.sampled, noisy.size());  // every point (fewer than max_points)
     const float s_deg = test::degrees(test::rotation_error(s.pose, box.truth));
     const float d_deg = test::degrees(test::rotation_error(d.pose, box.truth));
     sparse_deg += s_deg / kDraws;
@@ -130,7 +127,7 @@ TEST(IcpRefinement, TheFinalIterationsOnADenseSampleAverageTheNoiseOut) {
     dense_worst = std::max(dense_worst, d_deg);
   }
   std::printf(
-      "3 mm noise, %d draws, 10 iterations on 20 points: %.2f deg mean, %.2f worst; the last 3 on every point: "
+      "3 mm noise, %d draws, 10 iterations on 20 points: %.2f deg mean, %.2f worst; on every point: "
       "%.2f deg mean, %.2f worst\n",
       kDraws, sparse_deg, sparse_worst, dense_deg, dense_worst);
   EXPECT_LT(dense_worst, 1.5f);
@@ -268,90 +265,6 @@ TEST(IcpRefinement, TheUnexplainedShareGrowsWithTheMisplacement) {
   EXPECT_THROW(icp.unexplained(scene.positions, model.positions, truth, 2), std::invalid_argument);
 }
 
-// A can: the side of a cylinder (radius 4 cm, height 12 cm) in eight red and blue stripes around its axis (z),
-// object frame. The model's points lie on a grid about 5 mm apart; the scene's are drawn at random (seeded), as a
-// sensor samples a surface elsewhere than the model's voxels.
-constexpr float kCanRadius = 0.04f, kCanHeight = 0.12f;
-
-Rgb8 stripe_colour(float angle) {
-  const float turns = angle / (2.f * std::numbers::pi_v<float>);
-  const int stripe = static_cast<int>(std::floor((turns - std::floor(turns)) * 8.f));
-  return stripe % 2 == 0 ? test::kRed : test::kBlue;
-}
-
-Eigen::Vector3f on_can(float angle, float z) {
-  return Eigen::Vector3f(kCanRadius * std::cos(angle), kCanRadius * std::sin(angle), z);
-}
-
-ColoredCloud striped_can_model() {
-  constexpr float kSpacing = 0.005f;
-  const int around = static_cast<int>(std::round(2.f * std::numbers::pi_v<float> * kCanRadius / kSpacing));
-  ColoredCloud can;
-  for (int a = 0; a < around; ++a) {
-    const float angle = 2.f * std::numbers::pi_v<float> * static_cast<float>(a) / static_cast<float>(around);
-    for (float z = -0.5f * kCanHeight; z <= 0.5f * kCanHeight; z += kSpacing) {
-      can.push_back(on_can(angle, z), stripe_colour(angle));
-    }
-  }
-  return can;
-}
-
-TEST(IcpRefinement, ColourPairsSeeATurnAboutTheSymmetryAxisThatGeometryCannot) {
-  const ColoredCloud model = striped_can_model();
-  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
-  // Seen from the camera 0.9 m away, its axis tilted 60 degrees towards it: the near half of the side.
-  const Pose truth = test::make_pose(Eigen::Vector3f(0.02f, 0.f, 0.9f), Eigen::Vector3f::UnitX(), test::radians(-60.f));
-  ColoredCloud scene;
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> turn(0.f, 2.f * std::numbers::pi_v<float>);
-  std::uniform_real_distribution<float> height(-0.5f * kCanHeight, 0.5f * kCanHeight);
-  while (scene.size() < 800) {
-    const float angle = turn(rng);
-    const Eigen::Vector3f local = on_can(angle, height(rng));
-    const Eigen::Vector3f p = truth.isometry() * local;
-    const Eigen::Vector3f normal = truth.rotation * Eigen::Vector3f(local.x(), local.y(), 0.f);
-    if (normal.dot(p) < 0.f) scene.push_back(p, stripe_colour(angle));  // facing the camera at the origin
-  }
-  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
-  // The filter's estimate lags the can's turn about its own axis by 8 degrees (5.6 mm of arc).
-  Pose start = truth;
-  start.rotation =
-      (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(8.f), Eigen::Vector3f::UnitZ())))
-          .normalized();
-  IcpRefinementOptions options = iterations(10);
-  IcpRefinement geometric(options);
-  const IcpResult shape_only = geometric.refine(scene.positions, model.positions, start);
-  options.color_weight = 1.f;
-  IcpRefinement colored(options);
-  const IcpResult with_colour = colored.refine(scene.positions, scene_features, model.positions, model_features, start);
-  const float shape_error = test::degrees(test::rotation_error(shape_only.pose, truth));
-  const float colour_error = test::degrees(test::rotation_error(with_colour.pose, truth));
-  std::printf("turned 8 deg about the axis: geometry %.2f deg, colour and geometry %.2f deg (%.2f mm)\n", shape_error,
-              colour_error, 1e3f * test::translation_error(with_colour.pose, truth));
-  // The shape cannot show the turn: the nearest points leave it.
-  EXPECT_GT(shape_error, 6.f);
-  ASSERT_TRUE(with_colour.refined);
-  // Only the points near a stripe's edge pull (a point inside a stripe pairs with its nearest point of that colour),
-  // so each iteration takes a share of the lag: 1.8 degrees left after 10.
-  EXPECT_LT(colour_error, 2.5f);
-  EXPECT_LT(test::translation_error(with_colour.pose, truth), 0.0015f);
-  // Without the scene's features (or with color_weight 0) it is the geometric refinement, pose for pose.
-  const IcpResult no_features = colored.refine(scene.positions, {}, model.positions, model_features, start);
-  EXPECT_EQ(no_features.pose.rotation.coeffs(), shape_only.pose.rotation.coeffs());
-  // The colour charge tells the turned pose from the truth; the shape's does not.
-  const auto charge = [&](IcpRefinement& icp, std::span<const SmrFeature> features, const Pose& pose) {
-    return icp.unexplained(scene.positions, features, model.positions, model_features, pose, 2000);
-  };
-  std::printf("charge turned / true: colour %.3f / %.3f, geometry %.3f / %.3f\n",
-              charge(colored, scene_features, start), charge(colored, scene_features, truth),
-              charge(geometric, {}, start), charge(geometric, {}, truth));
-  EXPECT_GT(charge(colored, scene_features, start), 1.5f * charge(colored, scene_features, truth));
-  EXPECT_NEAR(charge(geometric, {}, start), charge(geometric, {}, truth), 0.02f);
-  // A feature span of another size than its points is refused.
-  EXPECT_THROW(colored.refine(scene.positions, model_features, model.positions, model_features, start),
-               std::invalid_argument);
-}
-
 TEST(IcpRefinement, InvalidOptionsThrow) {
   const auto bad = [](auto mutate) {
     IcpRefinementOptions o;
@@ -365,16 +278,8 @@ TEST(IcpRefinement, InvalidOptionsThrow) {
   bad([](IcpRefinementOptions& o) { o.max_translation = -0.1f; });
   bad([](IcpRefinementOptions& o) { o.max_rotation = 4.f; });
   bad([](IcpRefinementOptions& o) { o.max_points = 2; });
-  bad([](IcpRefinementOptions& o) { o.final_points = 2; });
-  bad([](IcpRefinementOptions& o) {
-    o.iterations = 3;
-    o.final_iterations = 4;  // more than the iterations
-  });
-  bad([](IcpRefinementOptions& o) { o.final_iterations = -1; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 0.9f; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 1001.f; });
-  bad([](IcpRefinementOptions& o) { o.color_weight = -0.1f; });
-  bad([](IcpRefinementOptions& o) { o.color_weight = 10.5f; });
   IcpRefinementOptions too_far;
   too_far.max_distance = 0.5f;
   test::expect_invalid_argument([&] { too_far.validate("tracker"); }, "tracker.max_distance");

@@ -178,8 +178,8 @@ TEST(ParticleFilter, RefinementFollowsAThinParticleSetCloser) {
   ParticleFilterOptions options = tracking_options(7);
   options.num_particles = 30;  // thin over 6 DoF: the weighted mean lags
   const TrackResult mean_only = track(scene, options);
-  options.refine_rounds = 3;
-  const TrackResult refined = track(scene, options);
+  const StepMotion three_rounds{options.predicted_fraction, 3};
+  const TrackResult refined = track(scene, options, &three_rounds);
   std::printf(
       "30 particles: rotation mean %.2f -> %.2f deg, translation mean %.2f -> %.2f mm with 3 refinement rounds\n",
       degrees(mean_only.mean_rotation_error), degrees(refined.mean_rotation_error),
@@ -196,17 +196,20 @@ TEST(ParticleFilter, AStepsMotionTakesThePlaceOfTheOptions) {
   thesis.predicted_fraction = 0.5f;
   ParticleFilterOptions harder = thesis;
   harder.predicted_fraction = 0.9f;
-  harder.refine_rounds = 3;
   const StepMotion follow = harder.step_motion();
+  EXPECT_EQ(follow.refine_rounds, 0);  // the options' own step: the weighted mean only
   const TrackResult by_options = track(scene, harder);
   const TrackResult by_step = track(scene, thesis, &follow);
-  const TrackResult plain = track(scene, thesis);
   ASSERT_EQ(by_step.estimates.size(), by_options.estimates.size());
   for (std::size_t k = 0; k < by_step.estimates.size(); ++k) {
     ASSERT_EQ(by_step.estimates[k].translation, by_options.estimates[k].translation) << "frame " << k + 1;
     ASSERT_EQ(by_step.estimates[k].rotation.coeffs(), by_options.estimates[k].rotation.coeffs()) << "frame " << k + 1;
   }
-  EXPECT_LT(by_step.mean_rotation_error, 0.8f * plain.mean_rotation_error);
+  // A step that follows harder (more particles predicted, refinement rounds) follows the thin set closer.
+  const StepMotion refined{0.9f, 3};
+  const TrackResult by_refined_step = track(scene, thesis, &refined);
+  const TrackResult plain = track(scene, thesis);
+  EXPECT_LT(by_refined_step.mean_rotation_error, 0.8f * plain.mean_rotation_error);
 
   JcsdLikelihood likelihood;
   likelihood.set_model(scene.model);
@@ -448,7 +451,7 @@ TEST(ParticleFilter, InvalidOptionsThrow) {
   bad([](ParticleFilterOptions& o) { o.b = std::nanf(""); });
   bad([](ParticleFilterOptions& o) { o.lambda = 0.f; });
   bad([](ParticleFilterOptions& o) { o.predicted_fraction = 1.5f; });
-  bad([](ParticleFilterOptions& o) { o.refine_rounds = -1; });
+  EXPECT_THROW((StepMotion{0.5f, -1}.validate()), std::invalid_argument);
 }
 
 }  // namespace

@@ -103,111 +103,49 @@ TEST(Config, NestedSectionsAndVectors) {
   EXPECT_NO_THROW(check_top_level(root, {"merger"}));
 }
 
-TEST(Config, TrackerOcclusionKeysReachTheTrackingStep) {
-  const TrackerConfig c = load_tracker_config(
-      with_defaults("tracker:\n  hypothesis_margin: 0.04\n  exclude_occluders: true\n  hold_occluded_share: 0.7\n"));
-  EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.04f);
-  EXPECT_TRUE(c.step.exclude_occluders);
-  EXPECT_FLOAT_EQ(c.step.hold_occluded_share, 0.7f);
-  // The merger's retirement counts a hidden object's frames with the same share.
-  EXPECT_FLOAT_EQ(
-      load_merger_config(with_defaults("tracker:\n  hold_occluded_share: 0.7\n")).manager.hidden_occluded_share, 0.7f);
-  // Absent keys: the shipped step (configs/default.yaml), not the option struct's thesis values.
-  const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
-  EXPECT_TRUE(shipped.step.exclude_occluders);
-  EXPECT_FLOAT_EQ(shipped.step.hold_occluded_share, 0.6f);
-  EXPECT_FLOAT_EQ(shipped.step.hold_min_scored_share, 0.2f);
-  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  exclude_occluders: maybe\n")), ConfigError);
-}
-
-TEST(Config, TheLastPoseCheckKeysReachTheStep) {
-  const TrackerConfig c = load_tracker_config(with_defaults("tracker:\n  last_pose_check_occluded_share: 0.3\n"));
-  EXPECT_FLOAT_EQ(c.step.last_pose_check_occluded_share, 0.3f);
-  // Absent keys: the shipped check (configs/default.yaml), not the option struct's thesis value (off).
-  const TrackerConfig shipped = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
-  EXPECT_GT(shipped.step.last_pose_check_occluded_share, 0.f);
-  expect_rejected(load_tracker_config, "tracker:\n  last_pose_check_occluded_share: 1.5\n",
-                  "last_pose_check_occluded_share");
-  // The check needs the occluded share, which only the hold measures.
-  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  hold_occluded_share: 0\n")), ConfigError);
-}
-
-TEST(Config, TheConfidencesSeenThroughWeightIsTheMethods) {
-  // The method's weight (docs/method.md, Constants), not the option struct's fit alone.
-  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.confidence_seen_through_weight, 0.f);
-  // The share needs the scene's rays, which only the hold indexes: without a hold, the fit alone; the pose checks need
-  // the hold too, and are named.
-  const std::string hold_off = "tracker:\n  hold_occluded_share: 0\n  last_pose_check_occluded_share: 0\n";
-  EXPECT_EQ(load_tracker_config(with_defaults(hold_off + "  companion_pose_check: false\n"))
-                .step.confidence_seen_through_weight,
-            0.f);
-  expect_rejected(load_tracker_config, hold_off, "companion_pose_check");
-}
-
-TEST(Config, TheCompanionPoseCheckKeyReachesTheStep) {
-  EXPECT_FALSE(
-      load_tracker_config(with_defaults("tracker:\n  companion_pose_check: false\n")).step.companion_pose_check);
-  // Absent: the shipped value (configs/default.yaml: on).
-  EXPECT_TRUE(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_pose_check);
-  EXPECT_THROW(load_tracker_config(with_defaults("tracker:\n  companion_pose_check: sometimes\n")), ConfigError);
-}
-
-TEST(Config, TheCompanionTurnKeyReachesTheStep) {
-  const TrackerConfig c = load_tracker_config(with_defaults("tracker:\n  companion_turn_min_deg: 1.5\n"));
-  EXPECT_NEAR(c.step.companion_turn_min, 1.5f * std::numbers::pi_v<float> / 180.f, 1e-7f);
-  // The method's cosine and kept share (docs/method.md, Constants).
+TEST(Config, TheTrackingStepsConstantsAreTheMethods) {
+  // Keys no more (docs/method.md, Constants; docs/experiment-log.md): the services run the method's values, not the
+  // option structs' thesis values.
+  const TrackerConfig c = load_tracker_config(with_defaults("tracker:\n  particles: 50\n"));
+  EXPECT_FLOAT_EQ(c.step.hypothesis.margin, 0.05f);
+  EXPECT_FLOAT_EQ(c.step.hold_occluded_share, 0.6f);  // and the occluders left out of every stepped frame
+  EXPECT_FLOAT_EQ(c.step.hold_min_scored_share, 0.2f);
+  EXPECT_FLOAT_EQ(c.step.exclude_claimed_radius, 0.01f);  // and an isolated object followed harder
+  EXPECT_FLOAT_EQ(c.step.isolated_motion.predicted_fraction, 0.75f);
+  EXPECT_EQ(c.step.isolated_motion.refine_rounds, 2);
+  EXPECT_FLOAT_EQ(c.step.last_pose_check_occluded_share, 0.15f);  // and the companion's pose checked (step 5d)
+  EXPECT_NEAR(c.step.companion_turn_min, 0.7f * std::numbers::pi_v<float> / 180.f, 1e-7f);
   EXPECT_FLOAT_EQ(c.step.companion_turn_min_cosine, 0.8f);
   EXPECT_FLOAT_EQ(c.step.companion_turn_max_kept, 0.3f);
-  // Absent: the shipped step (configs/default.yaml: on), not the option struct's thesis value (off).
-  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.companion_turn_min, 0.f);
-  expect_rejected(load_tracker_config, "tracker:\n  companion_turn_min_deg: -1\n", "companion_turn_min_deg");
-  expect_rejected(load_tracker_config, "tracker:\n  companion_turn_max_kept: 0.4\n", "companion_turn_max_kept");
-}
-
-TEST(Config, TheClaimRadiusReachesTheStepAndTheMergersModels) {
-  const std::string keys = "tracker:\n  hypothesis_margin: 0.04\n  exclude_claimed_radius: 0.015\n";
-  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults(keys)).step.exclude_claimed_radius, 0.015f);
-  // The merger sends with each model what lies within the tracker's margin plus the radius.
-  EXPECT_FLOAT_EQ(load_merger_config(with_defaults(keys)).claimed_margin, 0.055f);
-  EXPECT_FLOAT_EQ(load_merger_config(with_defaults("tracker:\n  exclude_claimed_radius: 0\n")).claimed_margin, 0.f);
-  // Shipped: on (configs/default.yaml).
-  EXPECT_GT(load_tracker_config(with_defaults("tracker:\n  particles: 50\n")).step.exclude_claimed_radius, 0.f);
-  for (const std::string bad :
-       {"tracker:\n  exclude_claimed_radius: 0.5\n", "tracker:\n  exclude_claimed_radius: -1\n"}) {
-    try {
-      load_tracker_config(with_defaults(bad));
-      FAIL() << bad << " was accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("exclude_claimed_radius"), std::string::npos) << e.what();
-    }
-    EXPECT_THROW(load_merger_config(with_defaults(bad)), ConfigError);
+  EXPECT_GT(c.step.confidence_seen_through_weight, 0.f);
+  EXPECT_FLOAT_EQ(c.filter.companion_fraction, 0.5f);
+  EXPECT_FLOAT_EQ(c.filter.follow_replaced_estimate, 1.f);
+  EXPECT_EQ(c.step.icp.max_points, 2000);
+  EXPECT_FLOAT_EQ(c.step.icp.min_paired_share, 0.8f);
+  EXPECT_FLOAT_EQ(c.step.icp.anchor_weight, 4.f);
+  EXPECT_NO_THROW(c.step.validate());
+  // The merger shares the hold's share (a hidden object's frames do not count towards its retirement) and sends with
+  // each model what lies within the tracker's margin plus the claim radius.
+  const MergerConfig m = load_merger_config(with_defaults(""));
+  EXPECT_FLOAT_EQ(m.manager.hidden_occluded_share, 0.6f);
+  EXPECT_FLOAT_EQ(m.claimed_margin, 0.06f);
+  for (const std::string key :
+       {"hypothesis_margin: 0.04", "exclude_occluders: true", "hold_occluded_share: 0.7", "exclude_claimed_radius: 0",
+        "follow_isolated: false", "last_pose_check_occluded_share: 0.3", "companion_pose_check: false",
+        "companion_turn_min_deg: 0", "companion_fraction: 0.3", "particles_follow_refinement: 0", "icp_max_points: 300",
+        "icp_color_weight: 1", "icp_anchor_weight: 4", "companion_turn_max_kept: 0.4"}) {
+    expect_rejected(load_tracker_config, "tracker:\n  " + key + "\n", key.substr(0, key.find(':')));
   }
 }
 
-TEST(Config, TheIsolatedMotionAndIcpKeysReachTheStep) {
-  const TrackerConfig c = load_tracker_config(with_defaults("tracker:\n  follow_isolated: true\n"));
-  EXPECT_TRUE(c.step.follow_isolated);
-  EXPECT_FLOAT_EQ(c.step.isolated_motion.predicted_fraction, 0.75f);  // the method's (docs/method.md, Constants)
-  EXPECT_EQ(c.step.isolated_motion.refine_rounds, 2);
-  const TrackerConfig icp = load_tracker_config(
-      with_defaults("tracker:\n  icp_iterations: 7\n  icp_max_distance: 0.02\n  icp_max_points: 300\n"));
+TEST(Config, TheIcpKeysReachTheStep) {
+  const TrackerConfig icp =
+      load_tracker_config(with_defaults("tracker:\n  icp_iterations: 7\n  icp_max_distance: 0.02\n"));
   EXPECT_EQ(icp.step.icp.iterations, 7);
   EXPECT_FLOAT_EQ(icp.step.icp.max_distance, 0.02f);
-  EXPECT_EQ(icp.step.icp.max_points, 300);
-  // The method's constants, not the option struct's thesis values.
-  EXPECT_FLOAT_EQ(icp.step.icp.min_paired_share, 0.8f);
-  EXPECT_FLOAT_EQ(icp.step.icp.anchor_weight, 4.f);
-  EXPECT_FLOAT_EQ(icp.step.hold_min_scored_share, 0.2f);
-  EXPECT_FALSE(load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n")).step.follow_isolated);
-  // The thesis everywhere is one switch away; without the claims nothing tells an object is isolated.
-  EXPECT_NO_THROW(
-      load_tracker_config(with_defaults("tracker:\n  follow_isolated: false\n  exclude_claimed_radius: 0\n")));
   const std::pair<std::string, std::string> bad[] = {
-      {"tracker:\n  follow_isolated: true\n  exclude_claimed_radius: 0\n", "follow_isolated"},
       {"tracker:\n  icp_iterations: 51\n", "icp_iterations"},
       {"tracker:\n  icp_max_distance: 0.5\n", "icp_max_distance"},
-      {"tracker:\n  icp_max_points: 2\n", "icp_max_points"},
-      {"tracker:\n  icp_anchor_weight: 4\n", "icp_anchor_weight"},  // no longer a key
   };
   for (const auto& [yaml, key] : bad) expect_rejected(load_tracker_config, yaml, key);
 }
@@ -270,22 +208,9 @@ TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
   EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n"))
                 .manager.companion.contact_distance,
             0.f);
-  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  companion_fraction: 0.3\n")).filter.companion_fraction,
-                  0.3f);
   for (const std::string key : {"contact_distance: 0.5", "min_motion: 0.002", "rate: 1"}) {
     expect_rejected(load_merger_config, "merger:\n  companion:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
-  expect_rejected(load_tracker_config, "tracker:\n  companion_fraction: 1.5\n", "companion_fraction");
-}
-
-TEST(Config, ParticlesFollowRefinementReachesTheFilter) {
-  EXPECT_FLOAT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0.25\n"))
-                      .filter.follow_replaced_estimate,
-                  0.25f);
-  EXPECT_EQ(load_tracker_config(with_defaults("tracker:\n  particles_follow_refinement: 0\n"))
-                .filter.follow_replaced_estimate,
-            0.f);
-  expect_rejected(load_tracker_config, "tracker:\n  particles_follow_refinement: 1.5\n", "particles_follow_refinement");
 }
 
 TEST(Config, VoxelJitterReachesThePreprocessorWithItsSeed) {
@@ -417,7 +342,6 @@ TEST(DefaultConfig, AnEmptyConfigIsTheShippedOne) {
   const MergerConfig merger = load_merger_config(from_empty);
   const PreprocessConfig preprocess = load_preprocess_config(from_empty);
   // The values that differ from the thesis's option structs.
-  EXPECT_TRUE(tracker.step.exclude_occluders);
   EXPECT_FLOAT_EQ(tracker.step.hold_occluded_share, 0.6f);
   EXPECT_EQ(tracker.filter.num_particles, 100);
   EXPECT_FLOAT_EQ(merger.manager.model_update.alpha, 0.0f);
@@ -429,7 +353,7 @@ TEST(DefaultConfig, AnEmptyConfigIsTheShippedOne) {
   { std::ofstream(one) << "tracker:\n  particles: 250\n"; }
   const YAML::Node changed = load_config_file(one);
   EXPECT_EQ(load_tracker_config(changed).filter.num_particles, 250);
-  EXPECT_TRUE(load_tracker_config(changed).step.exclude_occluders);
+  EXPECT_FLOAT_EQ(load_tracker_config(changed).step.hold_occluded_share, 0.6f);
 }
 
 // The configs shipped for real set-ups load through every loader.

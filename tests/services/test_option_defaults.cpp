@@ -27,18 +27,8 @@ const std::set<std::string> kStructKeepsTheThesis = {
     "preprocess.table_prism",
     "preprocess.queue_frames",
     "tracker.particles",
-    "tracker.companion_fraction",
-    "tracker.hold_occluded_share",
-    "tracker.exclude_occluders",
-    "tracker.follow_isolated",
     "tracker.icp_iterations",
-    "tracker.icp_max_points",
-    "tracker.companion_pose_check",
-    "tracker.companion_turn_min_deg",
     "tracker.queue_scenes",
-    "tracker.exclude_claimed_radius",
-    "tracker.last_pose_check_occluded_share",
-    "tracker.particles_follow_refinement",
     "merger.alpha",
     "merger.propagation_min_seed_share",
     "merger.reidentify_grown",
@@ -92,19 +82,10 @@ TEST(OptionDefaults, TheOptionStructsDefaultToTheDeclaredValues) {
   const MergerConfig loaded_merger = load_merger_config(defaults);
   const MergerConfig plain_merger;
 #include "option_defaults.inc"
-  // The tracker keys read by helpers (and by both loaders).
+  // The tracker key read by a helper (and by both loaders).
   expect_same(loaded_tracker.likelihood.grid.cell_size, plain_tracker.likelihood.grid.cell_size, "tracker.cell_size");
   expect_same(loaded_merger.manager.registration.cell_size, plain_merger.manager.registration.cell_size,
               "tracker.cell_size");
-  expect_same(loaded_tracker.step.hypothesis.margin, plain_tracker.step.hypothesis.margin, "tracker.hypothesis_margin");
-  expect_same(loaded_tracker.step.exclude_claimed_radius, plain_tracker.step.exclude_claimed_radius,
-              "tracker.exclude_claimed_radius");
-  expect_same(loaded_tracker.step.last_pose_check_occluded_share, plain_tracker.step.last_pose_check_occluded_share,
-              "tracker.last_pose_check_occluded_share");
-  expect_same(loaded_tracker.filter.follow_replaced_estimate, plain_tracker.filter.follow_replaced_estimate,
-              "tracker.particles_follow_refinement");
-  expect_same(loaded_merger.manager.hidden_occluded_share, plain_merger.manager.hidden_occluded_share,
-              "tracker.hold_occluded_share");
 }
 
 }  // namespace

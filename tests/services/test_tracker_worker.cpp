@@ -28,7 +28,6 @@ ObjectTrackerOptions cpu_options() {
   o.likelihood.backend = LikelihoodBackend::kCpu;
   o.filter.num_particles = 50;
   o.filter.seed = 11;
-  o.step.exclude_occluders = true;
   o.step.hold_occluded_share = 0.6f;
   return o;
 }

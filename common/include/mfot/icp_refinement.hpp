@@ -5,19 +5,17 @@
 // particles' weighted mean: the JCSD score is smooth over its 15 mm kernel, so on an object turning
 // fast its mode lies several degrees from the true pose at some views whatever the particle count
 // (2000 particles on the H100 still leave 2-3 degrees of it), while the model's surface pins it within
-// the voxel size. With color_weight the pairs are chosen in colour and space, so a turn that the texture
-// shows but the shape does not (a labelled can about its axis) is kept, not pulled back.
+// the voxel size. The pairs are chosen by position alone (docs/experiment-log.md "Coloured ICP pairing": pairs in
+// colour and space saw a labelled can's turn about its axis, at twice the trackers' stage cost).
 // TrackingStep runs it on every stepped frame, on the points left after the occluders
 // and the points other objects claim are removed (a finger gripping the object would otherwise pair
 // with the face beneath it), and holds the filter where too few are left (hold_min_scored_share).
 
-#include <array>
 #include <cstddef>
 #include <span>
 #include <string>
 #include <vector>
 
-#include "mfot/smr_feature.hpp"
 #include "mfot/spatial_hash.hpp"
 #include "mfot/types.hpp"
 
@@ -39,25 +37,11 @@ struct IcpRefinementOptions {
   // the cost; too few leave the fit's noise, and a weakly held direction such as a hand's roll about its
   // forearm, which shows only in its palm, rests on a handful of them). [3, 1000000]
   int max_points = 400;
-  // The last final_iterations iterations take up to final_points scene points instead (0 = none): the
-  // early iterations move the estimate on a cheap sample, the last ones average the noise out on a dense
-  // one. Cheaper than every iteration on final_points, but it follows weakly held directions less well
-  // (docs/experiment-log.md "ICP on 2000 points"). [0, iterations] and [3, 1000000].
-  int final_iterations = 0;
-  int final_points = 400;
   // The pairs of the object's first-view points (see refine's step 1) weigh this much in the fit, the
   // points grown since 1: where the first view shows, it holds the object's frame, which the pose error
   // of each growth would otherwise shift (docs/experiment-log.md "Anchored on the first view"). [1, 1000]; 1 = all
   // alike.
   float anchor_weight = 1.f;
-  // Colour in the pairing (coloured ICP, in the spirit of Park et al. 2017 and PCL's GICP6D): where both the
-  // scene and the model give their points' SMR features, a scene point pairs, among the model points within
-  // max_distance, with the one of least |scene - model|^2 + (color_weight max_distance)^2 d_c, d_c = half the
-  // squared difference of the two dense SMR vectors, in [0, 1] (0: one colour, 1: no bin shared). With 1, a point
-  // of the scene point's colour anywhere within reach ranks before one of a wholly other colour at the same place:
-  // a turn that the shape cannot show (a can about its axis) but its texture does is seen by the fit.
-  // [0, 10]; 0 = geometry alone (nearest point).
-  float color_weight = 0.f;
   // Throws std::invalid_argument naming the field as owner.field.
   void validate(const std::string& owner = "IcpRefinementOptions") const;
 };
@@ -66,7 +50,7 @@ struct IcpResult {
   Pose pose;  // refined, or the start pose when not refined
   bool refined = false;
   std::size_t paired = 0;   // sampled scene points paired in the last iteration run
-  std::size_t sampled = 0;  // scene points taking part in the last iteration run (at most max_points, or final_points)
+  std::size_t sampled = 0;  // scene points taking part in the last iteration run (at most max_points)
 };
 
 // Steps of refine():
@@ -75,16 +59,15 @@ struct IcpResult {
 //     no point) with the first model this refinement was given: the object's first view, which placed its
 //     frame exactly, whereas each point grown since was placed with the pose estimate of its frame, errors
 //     included. A model sharing none of them (rebuilt in a new frame) is the new first view;
-//  2. each iteration: map the scene points (an even sample of at most max_points; of at most final_points in the
-//     last final_iterations) into the object frame with the inverse of the current
+//  2. each iteration: map the scene points (an even sample of at most max_points) into the object frame with the
+//     inverse of the current
 //     pose, pair each with the nearest model point within max_distance (after the first iteration, a point
-//     whose last pair provably stays the nearest over the pose's move keeps it without a query), or, with
-//     colours (color_weight), with the one of least colour-and-space cost within max_distance; with fewer than
+//     whose last pair provably stays the nearest over the pose's move keeps it without a query); with fewer than
 //     min_paired_share of them paired, stop and keep the start pose;
 //  3. the rigid transform that best maps the paired model points onto their scene points (weighted least
 //     squares, closed form; an anchor's pair weighs anchor_weight, the others 1) is the new pose; when
 //     every point of the sample paired as in the last iteration, that is the pose already (converged):
-//     the iterations on that sample end (the final ones, on their own sample, still run);
+//     the iterations end;
 //  4. after the iterations, refuse a pose further from the start than max_translation /
 //     max_rotation.
 // Deterministic, no random draws. Non-copyable: it owns the model hash (kept while the model's points
@@ -97,25 +80,14 @@ class IcpRefinement {
 
   const IcpRefinementOptions& options() const { return options_; }
 
-  // scene: camera frame; model: object frame; start: object -> camera. Geometry alone.
+  // scene: camera frame; model: object frame; start: object -> camera.
   IcpResult refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model, const Pose& start);
-  // The same with the points' colour features (one per point, or empty: geometry alone), paired in colour and
-  // space when color_weight > 0. Throws std::invalid_argument when a non-empty span's size differs from its
-  // points'.
-  IcpResult refine(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                   std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
-                   const Pose& start);
   // How much of scene (camera frame) the model (object frame) at pose leaves unexplained, in [0, 1]: the mean,
   // over an even sample of at most max_points (>= 3) scene points, of the squared distance to the nearest model
   // point over max_distance squared (a point with none within max_distance counts 1); 1 for an empty scene or
   // model. Uses (and keeps) refine()'s model hash.
   float unexplained(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model, const Pose& pose,
                     int max_points);
-  // The same with colour features (as refine's): with color_weight > 0 a point counts its least pairing cost
-  // over the model points within max_distance, over max_distance squared, at most 1.
-  float unexplained(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                    std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
-                    const Pose& pose, int max_points);
 
  private:
   IcpRefinementOptions options_;
@@ -123,24 +95,15 @@ class IcpRefinement {
   std::vector<Eigen::Vector3f> hashed_model_;  // the points model_hash_ was built on
   // Step 1's hash (and anchors) for model, rebuilt only when its points differ from the last ones.
   void use_model(std::span<const Eigen::Vector3f> model);
-  // Sets colored_ and the dense colours of the model and of scene's points when both features are given and
-  // color_weight > 0.
-  void use_colors(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
-                  std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features);
-  // An even sample of scene (at most max_points) into sample_, with its points' colours when colored_.
+  // An even sample of scene (at most max_points) into sample_.
   void sample(std::span<const Eigen::Vector3f> scene, int max_points);
-  // Runs up to count iterations on one sample (steps 2-3), moving pose; false when too few of it paired.
-  bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, int count,
-               Eigen::Isometry3f& pose, IcpResult& result);
+  // Runs up to iterations on the sample (steps 2-3), moving pose; false when too few of it paired.
+  bool iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model, Eigen::Isometry3f& pose,
+               IcpResult& result);
 
-  std::vector<Eigen::Vector3f> sample_;                     // the scene points of the iterations running
-  bool colored_ = false;                                    // this call pairs in colour and space (use_colors)
-  std::vector<std::array<float, kSmrBins>> model_colors_;   // dense SMR per model point, when colored_
-  std::vector<std::array<float, kSmrBins>> scene_colors_;   // ... per scene point of the call
-  std::vector<std::array<float, kSmrBins>> sample_colors_;  // ... per sample point
-  std::vector<int> candidates_;                             // pair_colored's radius search
-  std::vector<int> nearest_;           // each sample point's model point (-1: none) in this iteration
-  std::vector<int> previous_nearest_;  // ... and in the last
+  std::vector<Eigen::Vector3f> sample_;  // the scene points of the iterations running
+  std::vector<int> nearest_;             // each sample point's model point (-1: none) in this iteration
+  std::vector<int> previous_nearest_;    // ... and in the last
   // A sample point's last query in the object frame, its nearest model point's distance and a lower bound
   // on the others' (SpatialHash::nearest_with_bound), metres. Later iterations move the pose by a fraction
   // of the point spacing, so most points keep their nearest provably and skip the query (same pairs).
@@ -148,19 +111,12 @@ class IcpRefinement {
     Eigen::Vector3f query = Eigen::Vector3f::Zero();
     float distance = 0.f;
     float others = 0.f;
-    int nearest = -1;  // the nearest model point of the query (pair_colored's: its pair may be another)
   };
   std::vector<PairBound> bounds_;  // per sample point
   // The nearest model point within max_distance of local (-1: none), as SpatialHash::nearest would give:
   // last_nearest when bound proves it still is, otherwise by a new query that renews bound.
   int pair(const Eigen::Vector3f& local, std::span<const Eigen::Vector3f> model, int last_nearest,
            PairBound& bound) const;
-  // The model point of least colour-and-space cost within max_distance of local, whose colour is color (-1: none);
-  // cost gets that cost, square metres. The nearest point (pair(): its last_nearest is bound.nearest, with
-  // use_last) is the answer without a radius search where its cost is at most the squared distance every other
-  // point provably keeps.
-  int pair_colored(const Eigen::Vector3f& local, const std::array<float, kSmrBins>& color,
-                   std::span<const Eigen::Vector3f> model, bool use_last, PairBound& bound, float& cost);
   // Step 1's anchors: the first view, indexed (empty: none yet); each model point's weight (empty: all alike).
   void weigh_anchors();
   SpatialHash first_view_hash_;

@@ -54,15 +54,15 @@ struct ParticleFilterOptions {
   // until the gap passes its largest correction; moved all the way, nothing holds the set against the
   // refinement's own creep. [0, 1]; 0 = the set stays (thesis).
   float follow_replaced_estimate = 0.f;
-  // Local refinement of the estimate on the same likelihood (step 6): rounds of a pattern search
-  // that tries the estimate moved by +-refine_translation along each axis and turned by
-  // +-refine_rotation about each axis (12 hypotheses and the estimate itself per round), moves to
-  // the best and halves both steps. 0 rounds = the thesis (the weighted mean only).
-  int refine_rounds = 0;              // [0, 20]
+  // The first steps of the pattern search of a step whose StepMotion asks for refine_rounds (step 6): it
+  // tries the estimate moved by +-refine_translation along each axis and turned by +-refine_rotation
+  // about each axis (12 hypotheses and the estimate itself per round), moves to the best and halves both
+  // steps.
   float refine_translation = 0.002f;  // metres, [0, 0.1]
   float refine_rotation = 0.0175f;    // radians, [0, 0.5]
-  // The filter's own step motion (what step() without a StepMotion uses).
-  StepMotion step_motion() const { return {predicted_fraction, refine_rounds}; }
+  // The filter's own step motion (what step() without a StepMotion uses): the thesis's, the weighted
+  // mean only (no refinement rounds).
+  StepMotion step_motion() const { return {predicted_fraction, 0}; }
 };
 
 // Pose increments in the 6-vector (x, y, z, roll, pitch, yaw). The rotation part is a rotation
@@ -98,7 +98,7 @@ Pose weighted_pose_mean(std::span<const Pose> poses, std::span<const float> weig
 //  5. estimate (2.11): weighted mean translation and the weighted quaternion mean (eigenvector of
 //     the largest eigenvalue of sum w_i q_i q_i^T, sign-aligned with the previous estimate);
 //     dX = X_t - X_{t-1} (2.13);
-//  6. with refine_rounds > 0, refine the estimate by a pattern search on the likelihood before
+//  6. with a StepMotion's refine_rounds > 0, refine the estimate by a pattern search on the likelihood before
 //     dX is taken (departure: the weighted mean of 100 particles over 6 DoF lags a turning object;
 //     the refined estimate's dX then predicts the next frame's particles further).
 // The first step after reset() skips 1-3: the particles were just drawn from N(X_init, C_init)
@@ -119,8 +119,8 @@ class ParticleFilter {
   // One filter iteration (steps above); returns the new estimate. Throws std::logic_error before
   // the first reset().
   const Pose& step(const HypothesisData& data, Likelihood& likelihood);
-  // The same with this frame's predicted_fraction and refine_rounds in place of the options'
-  // (validated: throws std::invalid_argument).
+  // The same with this frame's predicted_fraction and refine_rounds in place of the options' (predicted_fraction,
+  // no refinement) (validated: throws std::invalid_argument).
   const Pose& step(const HypothesisData& data, Likelihood& likelihood, const StepMotion& motion);
   // The same with a companion's motion: the increment (as dX, applied with apply_increment) that
   // moving with a touching object would give this object; companion_fraction of the particles that

@@ -28,13 +28,12 @@ struct TrackingStepOptions {
   SmrOptions smr;
   // Cone, depth margin and own-surface radius of the occlusion tests below.
   OcclusionOptions occlusion;
-  // A frame in which at least this share of the model, at the last estimate, is occluded by
-  // nearer scene points holds the filter (ParticleFilter::hold) instead of stepping it: the data
-  // cannot show a hidden object. [0, 1]; 0 = always step (thesis).
+  // The occlusion handling (departure from the thesis): a frame in which at least this share of the model, at the
+  // last estimate, is occluded by nearer scene points holds the filter (ParticleFilter::hold) instead of stepping it:
+  // the data cannot show a hidden object; and in every stepped frame, the hypothesis points in front of the model at
+  // the last estimate (the hand over it) are left out of the likelihood (OcclusionTest::remove_occluders). [0, 1];
+  // 0 = always step on every point (thesis).
   float hold_occluded_share = 0.f;
-  // Hypothesis points in front of the model at the last estimate (the hand over it) are left out
-  // of the likelihood (OcclusionTest::remove_occluders); false = score them all (thesis).
-  bool exclude_occluders = false;
   // Holds last at most this many frames in a row [1, 100000] (90: 3 s at 30 fps; the shipped
   // tracker.max_hold_frames). A hold cannot tell a hidden object from one whose estimate slipped
   // behind a surface (an object put down on another a few cm from where it was held): past this, the
@@ -75,10 +74,9 @@ struct TrackingStepOptions {
   // Without a hand or a neighbour near it, the score's mode is the object, and following it harder
   // (more particles moved by dX, a pattern search on the score) keeps up with fast turns; where a hand
   // grips the object the mode lies partly on the hand, and the thesis's broad step holds it better
-  // (docs/experiment-log.md "Motion-model options"). Needs exclude_claimed_radius > 0 (else no object is known to be
-  // isolated); equal to the filter's options = the thesis everywhere.
-  bool follow_isolated = false;
-  StepMotion isolated_motion{.predicted_fraction = 0.75f, .refine_rounds = 2};  // tracker.isolated_*
+  // (docs/experiment-log.md "Motion-model options"). Only with exclude_claimed_radius > 0 (else no object is known to
+  // be isolated: the filter's own step everywhere, the thesis).
+  StepMotion isolated_motion{.predicted_fraction = 0.75f, .refine_rounds = 2};
   // Every stepped frame's estimate refined on the model's surface (IcpRefinement on the points left
   // after the occluders and the claimed points are removed; iterations 0 = off, the thesis's weighted
   // mean); its dX then comes from the refined pose, and the particle set moves with it as far as the
@@ -94,19 +92,17 @@ struct TrackingStepOptions {
   // replaces the filter's estimate when it explains the view better: its share of scored points unexplained
   // (IcpRefinement::unexplained) plus its share of model points seen through (OcclusionTest::seen_through_share: where
   // the view shows what lies behind), each on at most last_pose_check_points points, is lower than the estimate's. [0,
-  // 1]; 0 = off (the thesis); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
+  // 1]; 0 = off (the thesis; step 5d too); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
   float last_pose_check_occluded_share = 0.f;
   int last_pose_check_points = 400;  // [3, 1000000]
-  // The companion's pose as a second start (departure from the thesis; docs/experiment-log.md "A gripped object started
-  // where its companion takes it"). In a frame where a touching object's motion is set (set_companion_motion) and at
-  // least last_pose_check_occluded_share of the model is occluded, the last estimate moved by that motion is refined
-  // too, and it replaces the filter's estimate when its charge (as the last pose check's, on last_pose_check_points) is
-  // lower: a box turned by the hand that grips it shows too little of itself for the
-  // refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within 0.3 degrees of
-  // the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it keeps its
-  // place. Needs hold_occluded_share > 0. false = the filter's estimate (thesis); configs/default.yaml turns it on
-  // (docs/experiment-log.md "A gripped object started where its companion takes it, by default").
-  bool companion_pose_check = false;
+  // The companion's pose as a second start (step 5d; departure from the thesis; docs/experiment-log.md "A gripped
+  // object started where its companion takes it"), with the last pose check: in a frame where a touching object's
+  // motion is set (set_companion_motion) and at least last_pose_check_occluded_share (> 0) of the model is occluded,
+  // the last estimate moved by that motion is refined too, and it replaces the filter's estimate when its charge (as
+  // the last pose check's, on last_pose_check_points) is lower: a box turned by the hand that grips it shows too little
+  // of itself for the refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within
+  // 0.3 degrees of the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it
+  // keeps its place.
   // The filter's turn, kept where the companion turns the same way and the refinement turns it back (step 5e; departure
   // from the thesis; docs/experiment-log.md "A turn the filter and the companion agree on"). On the preprocessor's
   // fixed voxel grid a surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly
@@ -137,7 +133,7 @@ struct TrackingStepResult {
   bool icp_refined = false;          // the estimate was refined on the model's surface (icp)
   bool companion = false;            // stepped with a companion's motion (set_companion_motion)
   bool last_pose_kept = false;       // the refined last estimate replaced the filter's (last_pose_check_*)
-  bool companion_pose_kept = false;  // the refined companion's pose replaced the filter's (companion_pose_check)
+  bool companion_pose_kept = false;  // the refined companion's pose replaced the filter's (step 5d)
   bool companion_turn_kept = false;  // the filter's turn, agreeing with the companion's, was kept (companion_turn_min)
   // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
   float fit = 0.f;
@@ -153,7 +149,7 @@ struct TrackingStepResult {
 //  1. when hold_occluded_share > 0: the model's occluded share at the last estimate; at or above
 //     it the filter holds and the step ends, unless it has held max_hold_frames in a row;
 //  2. select the hypothesis data around the last estimate (3.3);
-//  3. when exclude_occluders (and the hold has not expired): remove the points in front of the
+//  3. when hold_occluded_share > 0 (and the hold has not expired): remove the points in front of the
 //     model at the last estimate;
 //  3b. when exclude_claimed_radius > 0: remove the points that another object's model (the points
 //     of set_claimed_points) lies within that radius of, and nearer than this model at the last
@@ -162,13 +158,12 @@ struct TrackingStepResult {
 //     the filter holds and the step ends, unless it has held max_hold_frames in a row;
 //  4. compute the SMR features (3.2.1) of the points left, only those: the rest of the scene is
 //     never scored by this object;
-//  5. step the filter with the likelihood on what is left (with isolated_motion when follow_isolated
+//  5. step the filter with the likelihood on what is left (with isolated_motion when exclude_claimed_radius > 0
 //     and no other object's model is near; with the companion's motion when one was set);
-//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points (in colour and space
-//      with icp.color_weight, the points' SMR features against the model's, here and in 5c-5d);
+//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
-//  5d. when companion_pose_check, a companion's motion is set and at least last_pose_check_occluded_share is
+//  5d. when last_pose_check_occluded_share > 0, a companion's motion is set and at least that share is
 //      occluded: the same with the last estimate moved by the companion's motion (one block with 5c: a frame runs
 //      one of the two, by whether a companion is set);
 //  5e. when companion_turn_min > 0 and a companion's motion is set that turns at least that much: where the filter's

@@ -25,15 +25,9 @@ int auto_preprocess_threads() {
   return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
 
-// The tracker keys that the merger shares: the JCSD cell (its re-identification registration), the
-// hypothesis margin and the claim radius (what it sends with each model), and the hold's occluded share
-// (a hidden object's frames do not count towards its retirement); read the same way, with the same
-// ranges, by both loaders.
+// The tracker key that the merger shares: the JCSD cell (its re-identification registration), read the same
+// way, with the same range, by both loaders.
 float read_cell_size(ConfigSection& tracker) { return read_option<float>(tracker, "cell_size"); }
-
-float read_hypothesis_margin(ConfigSection& tracker) { return read_option<float>(tracker, "hypothesis_margin"); }
-float read_claim_radius(ConfigSection& tracker) { return read_option<float>(tracker, "exclude_claimed_radius"); }
-float read_hold_occluded_share(ConfigSection& tracker) { return read_option<float>(tracker, "hold_occluded_share"); }
 
 // The method's constants where the core's option structs keep the thesis (a feature off, or its value):
 // the services run these (docs/method.md, "Constants"). Every other constant of the method is its
@@ -49,6 +43,16 @@ constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less
 constexpr float kRefitIcpMinPairedShare = 0.8f;
 constexpr float kRefitIcpMaxRotationDeg = 10.f;
 constexpr int kRefitIcpMaxPoints = 1000;
+// The tracking step's (docs/method.md, "Constants"; the trackers and the merger share the hold's share and the claim
+// radius: a hidden object's frames do not count towards its retirement, and each model carries what the other objects
+// claim inside its tracker's hypothesis box).
+constexpr float kHoldOccludedShare = 0.6f;            // this share of the model occluded: hold (the object is hidden)
+constexpr float kClaimRadius = 0.01f;                 // a point this near another object's model is claimed by it
+constexpr float kCompanionFraction = 0.5f;            // of the unpredicted particles, moved by a companion's motion
+constexpr float kFollowReplacedEstimate = 1.f;        // the particle set moves by this share of a refinement
+constexpr int kIcpMaxPoints = 2000;                   // ICP on at most this many scored points
+constexpr float kLastPoseCheckOccludedShare = 0.15f;  // this share occluded: the last (or companion's) pose checked
+constexpr float kCompanionTurnMinDeg = 0.7f;          // a companion turning this much: step 5e
 
 }  // namespace
 
@@ -107,26 +111,20 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.filter.a = read_option<float>(s, "diffusion_a");
   c.filter.b = read_option<float>(s, "diffusion_b");
   c.filter.predicted_fraction = read_option<float>(s, "predicted_fraction");
-  c.filter.companion_fraction = read_option<float>(s, "companion_fraction");
-  c.filter.follow_replaced_estimate = read_option<float>(s, "particles_follow_refinement");
-  c.step.hypothesis.margin = read_hypothesis_margin(s);
-  c.step.hold_occluded_share = read_option<float>(s, "hold_occluded_share");
+  c.filter.companion_fraction = kCompanionFraction;
+  c.filter.follow_replaced_estimate = kFollowReplacedEstimate;
+  c.step.hold_occluded_share = kHoldOccludedShare;
   c.step.max_hold_frames = read_option<int>(s, "max_hold_frames");
   c.step.hold_min_scored_share = kHoldMinScoredShare;
-  c.step.exclude_occluders = read_option<bool>(s, "exclude_occluders");
-  // The seen-through share needs the scene's rays, which only the hold indexes: without a hold, the fit alone.
-  c.step.confidence_seen_through_weight = c.step.hold_occluded_share > 0.f ? kConfidenceSeenThroughWeight : 0.f;
-  c.step.exclude_claimed_radius = read_claim_radius(s);
-  c.step.follow_isolated = read_option<bool>(s, "follow_isolated");
+  c.step.confidence_seen_through_weight = kConfidenceSeenThroughWeight;
+  c.step.exclude_claimed_radius = kClaimRadius;
   c.step.icp.iterations = read_option<int>(s, "icp_iterations");
   c.step.icp.max_distance = read_option<float>(s, "icp_max_distance");
   c.step.icp.min_paired_share = kIcpMinPairedShare;
-  c.step.icp.max_points = read_option<int>(s, "icp_max_points");
+  c.step.icp.max_points = kIcpMaxPoints;
   c.step.icp.anchor_weight = kIcpAnchorWeight;
-  c.step.icp.color_weight = read_option<float>(s, "icp_color_weight");
-  c.step.last_pose_check_occluded_share = read_option<float>(s, "last_pose_check_occluded_share");
-  c.step.companion_pose_check = read_option<bool>(s, "companion_pose_check");
-  c.step.companion_turn_min = read_option<float>(s, "companion_turn_min_deg") * kRadiansPerDegree;
+  c.step.last_pose_check_occluded_share = kLastPoseCheckOccludedShare;
+  c.step.companion_turn_min = kCompanionTurnMinDeg * kRadiansPerDegree;
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
   c.merger_timeout_ms = read_option<int>(s, "merger_timeout_ms");
   c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
@@ -163,11 +161,10 @@ MergerConfig load_merger_config(const YAML::Node& root) {
     auto tracker = config_section(root, "tracker");
     c.manager.registration.cell_size = read_cell_size(tracker);
     // A hidden object's frames (as the trackers' hold measures it) do not count towards its retirement.
-    c.manager.hidden_occluded_share = read_hold_occluded_share(tracker);
+    c.manager.hidden_occluded_share = kHoldOccludedShare;
     // Each model carries what the other objects claim inside its tracker's hypothesis box.
     TrackingStepOptions step;
-    step.hypothesis.margin = read_hypothesis_margin(tracker);
-    step.exclude_claimed_radius = read_claim_radius(tracker);
+    step.exclude_claimed_radius = kClaimRadius;
     c.claimed_margin = step.claimed_margin();
   }
   c.manager.new_objects.confirm_frames = read_option<int>(s, "new_object_frames");
