@@ -180,18 +180,16 @@ const std::vector<CarryMonitor::Carried>& CarryMonitor::update(std::span<const O
       };
       if (carrier != nullptr && (watch->carrying || taken())) {
         watch->carrying = true;
-        relative = watch->relative;
         gripped_away = true;
       } else {
         carrier = nullptr;
       }
     }
     if (carrier == nullptr) continue;
-    if (gripped_away && options_.gripped_away == CarryOptions::GrippedAway::kRetire) {
+    if (gripped_away) {
       carried_.push_back({object.id, carrier->id, object.pose, true});
     } else {
-      const Pose carried = Pose::from_isometry(carrier->pose.isometry() * relative);
-      carried_.push_back({object.id, carrier->id, carried, gripped_away});
+      carried_.push_back({object.id, carrier->id, Pose::from_isometry(carrier->pose.isometry() * relative), false});
     }
   }
   std::sort(carried_.begin(), carried_.end(), [](const Carried& x, const Carried& y) { return x.id < y.id; });

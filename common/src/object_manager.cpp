@@ -93,8 +93,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       refit_(options.refit),
       carry_(options.carry),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)),
-      registration_(options.reidentify_register ? std::make_unique<ModelRegistration>(options.registration) : nullptr) {
-}
+      registration_(std::make_unique<ModelRegistration>(options.registration)) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
                                                  std::span<const std::int32_t> cluster_of_point,
@@ -178,7 +177,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
     object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));  // mixed: one part
     ++object.version;
   }
-  if (options_.refit.enabled) refit_parts(scene);
+  refit_parts(scene);
 
   // 4. retire objects without support, unless hidden
   hidden_.assign(segmentation_.object_ids.size(), 0);
@@ -244,7 +243,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
     }
   }
-  if (options_.reidentify_grown && !grown_.empty()) reidentify_grown_objects(scene);
+  if (!grown_.empty()) reidentify_grown_objects(scene);
   // 7. join parts that move as one, split objects whose parts moved apart
   frame_.joined.clear();
   frame_.split.clear();
@@ -471,7 +470,6 @@ std::int32_t ObjectManager::carried_match(const ColorHistogram& histogram) const
 }
 
 bool ObjectManager::take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points) {
-  if (!registration_) return false;
   ManagedObject& object = objects_.at(id);
   ManagedObject found;
   if (!keep_frame(object.model, object.pose, object.part_ends, scene, points, found)) return false;
@@ -583,7 +581,7 @@ void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, 
   object.id = known;
   object.version = retired_.at(known).version + 1;  // versions of an id only ever increase
   const RetiredObject& retired = retired_.at(known);
-  if (registration_ && keep_frame(retired.model, retired.pose, retired.part_ends, scene, points, object)) {
+  if (keep_frame(retired.model, retired.pose, retired.part_ends, scene, points, object)) {
     frame_.registered.push_back(known);
   }
   retired_.erase(known);
@@ -681,7 +679,7 @@ void ObjectManager::carry_hidden(const ColoredCloud& scene) {
     return occlusion.seen_through_share();
   };
   for (const CarryMonitor::Carried& carried : carry_.update(carry_objects_, touch, seen_through)) {
-    if (carried.gripped_away && options_.carry.gripped_away == CarryOptions::GrippedAway::kRetire) {
+    if (carried.gripped_away) {
       gripped_away_.push_back(carried.id);  // retired in step 4
       continue;
     }
@@ -909,7 +907,7 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     if (left) leaving.push_back(it->first);
     it = left ? confirm_born_at_.erase(it) : std::next(it);
   }
-  if (o.confirm_join && !leaving.empty()) join_unparted_siblings(leaving);
+  if (!leaving.empty()) join_unparted_siblings(leaving);
   // Still young objects by birth (the cluster they were found in), each with its segmented points.
   std::map<std::uint64_t, std::map<std::int32_t, std::vector<int>>> groups;
   std::map<std::int32_t, std::vector<int>*> points_of;
@@ -931,7 +929,7 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     if (all.size() < 2 * options_.min_object_points) continue;
     discover_parts(scene, all, parts);
     const PartMatch match = match_parts(parts);
-    if (o.confirm_join) watch_siblings(members, match);
+    watch_siblings(members, match);
     if (!match.disagrees(static_cast<std::size_t>(o.min_part_points)) || ++confirm_votes_[birth] < o.confirm_votes) {
       continue;
     }

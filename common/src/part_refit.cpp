@@ -58,7 +58,7 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
     throw std::invalid_argument("PartRefit::refit: part_ends must ascend to the model's " +
                                 std::to_string(model.size()) + " points");
   }
-  if (!options_.enabled || part_ends.size() < 2 || part_ends.front() == 0) return 0;
+  if (part_ends.size() < 2 || part_ends.front() == 0) return 0;
   // 1. each scene point to the part of its nearest model point
   model_hash_.build({model.data(), model.size()});
   part_scene_.resize(part_ends.size());

@@ -271,11 +271,10 @@ TEST(ObjectManager, AReidentifiedObjectKeepsItsFrameAndModel) {
     const ColoredCloud seen = test::seen_from_origin(box, size, pose);
     return std::make_pair(seen, std::vector<std::int32_t>(seen.size(), 0));
   };
-  auto run = [&](bool keep_frame) {
+  auto run = [&] {
     ObjectManagerOptions options;
     options.support.max_frames = 2;
     options.new_objects.confirm_frames = 1;
-    options.reidentify_register = keep_frame;
     auto manager = std::make_unique<ObjectManager>(options);
     const auto [first, first_cluster] = frame(before);
     manager->process(first, first_cluster, {});
@@ -285,7 +284,7 @@ TEST(ObjectManager, AReidentifiedObjectKeepsItsFrameAndModel) {
   };
   const auto [back, back_cluster] = frame(after);
 
-  const auto manager = run(true);
+  const auto manager = run();
   ObjectManager reference;  // what the object's frame was: made from the first view alone
   const auto [first, first_cluster] = frame(before);
   reference.process(first, first_cluster, {});
@@ -299,13 +298,6 @@ TEST(ObjectManager, AReidentifiedObjectKeepsItsFrameAndModel) {
   EXPECT_LT(test::degrees(test::rotation_error(object.pose, expected)), 3.f);
   EXPECT_LT(test::translation_error(object.pose, expected), 0.006f);
   EXPECT_GE(object.model.cloud.size(), reference.objects().at(1).model.cloud.size());  // remembered model kept
-
-  // Without the registration: a new frame at the new points' centroid, axis-aligned.
-  const auto plain = run(false);
-  const ObjectManagerFrame& fresh = plain->process(back, back_cluster, unchanged(*plain));
-  EXPECT_EQ(fresh.created, (std::vector<std::int32_t>{1}));
-  EXPECT_TRUE(fresh.registered.empty());
-  EXPECT_TRUE(plain->objects().at(1).pose.rotation.isApprox(Eigen::Quaternionf::Identity()));
 }
 
 TEST(ObjectManager, AGrownObjectReachingInAgainIsKnownByItsFirstView) {
@@ -349,14 +341,12 @@ std::pair<ColoredCloud, std::vector<std::int32_t>> returning_block(int columns, 
   return std::make_pair(cloud, cluster);
 }
 
-// Options under which only growth changes models, retirement takes two frames and ids come back unregistered.
+// Options under which only growth changes models and retirement takes two frames.
 ObjectManagerOptions returning_options() {
   ObjectManagerOptions options;
   options.support.max_frames = 2;
   options.new_objects.confirm_frames = 1;
   options.model_update.alpha = 0.f;  // models change by growth alone
-  options.reidentify_register = false;
-  options.reidentify_grown = true;
   return options;
 }
 
@@ -381,13 +371,7 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   // colours match nothing, so it is a new object. Next frame the whole block shows: the new object grows by the
   // blue rest, and the grown model matches the remembered one, whose id it takes back.
   const auto [whole, whole_cluster] = returning_block(10);
-  auto run = [&](bool grown_match) {
-    ObjectManagerOptions options = returning_options();
-    options.reidentify_grown = grown_match;
-    return with_a_piece_returned(options);
-  };
-
-  const auto manager = run(true);
+  const auto manager = with_a_piece_returned(returning_options());
   const ObjectManagerFrame& grown = manager->process(whole, whole_cluster, unchanged(*manager));
   EXPECT_EQ(grown.created, (std::vector<std::int32_t>{2}));
   EXPECT_EQ(grown.retired, (std::vector<std::int32_t>{3}));
@@ -401,15 +385,6 @@ TEST(ObjectManager, AReturningObjectFirstSeenInAPieceTakesItsIdBackOnceGrown) {
   for (std::size_t i = 0; i < whole.size(); ++i) EXPECT_EQ(grown.labels[i], whole_cluster[i] == 0 ? 1 : 2);
   // It is no longer new: growing again takes no other id.
   EXPECT_TRUE(manager->process(whole, whole_cluster, unchanged(*manager)).created.empty());
-
-  // Matched at birth only: it stays a new object.
-  const auto at_birth = run(false);
-  const ObjectManagerFrame& kept = at_birth->process(whole, whole_cluster, unchanged(*at_birth));
-  EXPECT_TRUE(kept.created.empty());
-  EXPECT_TRUE(kept.retired.empty());
-  EXPECT_TRUE(kept.reidentified.empty());
-  EXPECT_EQ(at_birth->objects().count(3), 1u);
-  EXPECT_EQ(at_birth->objects().at(3).model.cloud.size(), back.model.cloud.size());
 
   // Only objects retired by the new one's birth: the piece shows elsewhere while the block is still tracked
   // (unsupported), the block retires a frame later. Two objects seen at once are not one.
@@ -835,11 +810,9 @@ TEST(ObjectManagerCarry, AHeldObjectFollowsTheObjectItMovedWith) {
 // Block 1 carried by block 2 as above, then seen again 4 cm from where it was carried to (the carrier's motion a
 // guess: a box brought back in a hand): its points lie beyond tau of its model, in a cluster of their own, and would
 // be born as a new object. Its colours match the carried block's and its model registers on them: it takes the
-// points and the registered pose, and nothing is born. Without the registration (reidentify_register false) a new
-// object is born beside it.
+// points and the registered pose, and nothing is born.
 TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsBack) {
-  for (const bool registered : {true, false}) {
-    SCOPED_TRACE(registered ? "registration on" : "registration off");
+  {
     BornTogether scene;
     ObjectManagerOptions options;
     options.model_update.alpha = 0.f;
@@ -847,7 +820,6 @@ TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsB
     options.carry.min_motion = 0.02f;
     options.hidden_occluded_share = 0.6f;
     options.new_objects.confirm_frames = 1;
-    options.reidentify_register = registered;
     ObjectManager manager(options, std::make_unique<SplitAtXZero>());
     Eigen::Vector3f offset = moved_together(manager, scene, 5);
     ColoredCloud second_only;  // block 1 hidden
@@ -878,10 +850,6 @@ TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsB
     }
     const ObjectManagerFrame& result = manager.process(back, cluster, held_first({0.01f, 0.f, 0.f}));
     const std::size_t first_begin = second_only.size();
-    if (!registered) {
-      EXPECT_EQ(result.created, (std::vector<std::int32_t>{3}));
-      continue;
-    }
     EXPECT_TRUE(result.created.empty());
     EXPECT_EQ(result.found_carried, (std::vector<std::int32_t>{1}));
     EXPECT_EQ(manager.objects().size(), 2u);
@@ -902,19 +870,18 @@ TEST(ObjectManagerCarry, ACarriedObjectSeenAwayFromItsCarriedPoseTakesItsPointsB
 // still in view: claimed by block 2, say) while block 2 stays (the grip), and from frame 7 both move 1 cm
 // a frame. No watch saw them move together, but once block 2 is min_motion (2 cm) off its grip, block
 // 1's held place is seen through (the scene moved off it) and where block 2 would carry it is not: it
-// is carried from then on, or with gripped_away kRetire retired at that frame. With seen_through_share 0
-// it waits where it was held.
-TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatGrippedItOrRetires) {
-  enum class Mode { kOff, kCarry, kRetire };
-  for (const Mode mode : {Mode::kCarry, Mode::kRetire, Mode::kOff}) {
-    SCOPED_TRACE(mode == Mode::kOff ? "seen-through carry off" : mode == Mode::kCarry ? "carried" : "retired");
+// is gripped away: retired at that frame (re-identified where it shows again). With seen_through_share 0 it
+// waits where it was held.
+TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughIsRetiredOnceGrippedAway) {
+  enum class Mode { kOff, kRetire };
+  for (const Mode mode : {Mode::kRetire, Mode::kOff}) {
+    SCOPED_TRACE(mode == Mode::kOff ? "seen-through carry off" : "retired");
     BornTogether scene;
     ObjectManagerOptions options;
     options.model_update.alpha = 0.f;
     options.carry.frames = 3;
     options.carry.min_motion = 0.02f;
     options.carry.seen_through_share = mode == Mode::kOff ? 0.f : 0.2f;
-    if (mode == Mode::kRetire) options.carry.gripped_away = CarryOptions::GrippedAway::kRetire;
     options.hidden_occluded_share = 0.6f;
     ObjectManager manager(options, std::make_unique<SplitAtXZero>());
     manager.process(scene.cloud, scene.cluster, {});
@@ -940,9 +907,8 @@ TEST(ObjectManagerCarry, AHeldObjectWhosePlaceIsSeenThroughFollowsTheObjectThatG
         if (gripped_away) continue;
       }
       const ManagedObject& hidden = manager.objects().at(1);
-      EXPECT_EQ(hidden.carried_by, gripped_away ? 2 : 0);
-      const Eigen::Vector3f expected = held_at.translation + (gripped_away ? offset : still);
-      EXPECT_LT((hidden.pose.translation - expected).norm(), 1e-5f);
+      EXPECT_EQ(hidden.carried_by, 0);
+      EXPECT_LT((hidden.pose.translation - held_at.translation).norm(), 1e-5f);
     }
   }
 }
@@ -1186,12 +1152,10 @@ struct CutAtBirth {
   BornTogether scene;
   std::unique_ptr<ObjectManager> manager;
   ObjectManagerFrame last;
-  CutAtBirth(bool confirm_join, const std::vector<bool>& cut_in_frame) {
+  explicit CutAtBirth(const std::vector<bool>& cut_in_frame) {
     auto discovery = std::make_unique<SplitWhenTold>();
     SplitWhenTold* told = discovery.get();
-    ObjectManagerOptions options = confirm_options();
-    options.discovery.confirm_join = confirm_join;
-    manager = std::make_unique<ObjectManager>(options, std::move(discovery));
+    manager = std::make_unique<ObjectManager>(confirm_options(), std::move(discovery));
     told->splitting = true;
     manager->process(scene.cloud, scene.cluster, {});
     for (const bool cut : cut_in_frame) {
@@ -1204,10 +1168,7 @@ struct CutAtBirth {
 TEST(ObjectManagerConfirm, SiblingsTheDiscoveryNeverToldApartAgainAreJoinedWhenTheirFirstFramesEnd) {
   // Frames 1-5 find the block whole; frame 6 is past confirm_frames.
   const std::vector<bool> whole(6, false);
-  CutAtBirth off(false, whole);
-  EXPECT_EQ(off.manager->objects().size(), 2u);
-  EXPECT_TRUE(off.last.joined.empty());
-  CutAtBirth on(true, whole);
+  CutAtBirth on(whole);
   ASSERT_EQ(on.last.joined, (std::vector<std::pair<std::int32_t, std::int32_t>>{{1, 2}}));  // equal halves: 1 kept
   EXPECT_EQ(on.last.retired, (std::vector<std::int32_t>{2}));
   ASSERT_EQ(on.manager->objects().size(), 1u);
@@ -1216,12 +1177,12 @@ TEST(ObjectManagerConfirm, SiblingsTheDiscoveryNeverToldApartAgainAreJoinedWhenT
 }
 
 TEST(ObjectManagerConfirm, SiblingsToldApartInOneFrameOrSeenTooFewFramesTogetherStayApart) {
-  CutAtBirth apart_once(true, {false, false, true, false, false, false});  // one vote of two: no split either
+  CutAtBirth apart_once({false, false, true, false, false, false});  // one vote of two: no split either
   EXPECT_TRUE(apart_once.last.joined.empty());
   EXPECT_EQ(apart_once.manager->objects().size(), 2u);
   // Together in every frame, but object 1 (x < 0) is taken 2 cm away after three (a hand took it): the pair is
   // decided then, on three frames of the four it takes, and forgotten.
-  CutAtBirth still(true, {false, false, false});
+  CutAtBirth still({false, false, false});
   ColoredCloud taken = still.scene.cloud;
   for (auto& p : taken.positions) {
     if (p.x() < 0.f) p.x() -= 0.02f;
@@ -1239,9 +1200,7 @@ TEST(ObjectManagerConfirm, ThreePiecesOfOneBirthNeverToldApartAgainBecomeOne) {
   BornTogether scene;
   auto discovery = std::make_unique<SplitWhenTold>();
   SplitWhenTold* told = discovery.get();
-  ObjectManagerOptions options = confirm_options();
-  options.discovery.confirm_join = true;
-  ObjectManager manager(options, std::move(discovery));
+  ObjectManager manager(confirm_options(), std::move(discovery));
   told->splitting = true;
   told->at_x = {-0.01f, 0.01f};  // four columns each
   manager.process(scene.cloud, scene.cluster, {});
@@ -1328,12 +1287,10 @@ struct BoxGrownOff {
 };
 
 TEST(ObjectManager, AGrownPartPlacedWithAWrongEstimateIsReFittedOnTheFirstView) {
-  for (const bool refit : {true, false}) {
-    SCOPED_TRACE(refit ? "refit" : "no refit");
+  {
     const BoxGrownOff box;
     ObjectManagerOptions options;
     options.model_update.alpha = 0.f;  // the shipped setting: the thesis's update mixes the parts into one
-    options.refit.enabled = refit;
     ObjectManager manager(options);
     manager.process(box.first_view, box.first_cluster, {});
     ASSERT_EQ(manager.objects().size(), 1u);
@@ -1354,19 +1311,14 @@ TEST(ObjectManager, AGrownPartPlacedWithAWrongEstimateIsReFittedOnTheFirstView) 
     const std::int32_t version = object.version;
     // The right estimate, both parts in view: the grown face is moved back, once.
     manager.process(box.whole, box.whole_cluster, {{1, {right, 1.f}}});
-    if (refit) {
-      EXPECT_EQ(object.version, version + 1);
-      const float after = box.grown_error(object);
-      std::printf("the grown face %.2f mm off before, %.2f mm after\n", 1e3f * before, 1e3f * after);
-      // Both parts' point-to-point fits slide a little on faces sampled between the model's points (0.4 deg and
-      // 0.7 mm for the first view here): about half of the error goes.
-      EXPECT_LT(after, 0.6f * before);
-      manager.process(box.whole, box.whole_cluster, {{1, {right, 1.f}}});
-      EXPECT_EQ(object.version, version + 1);
-    } else {
-      EXPECT_EQ(object.version, version);
-      EXPECT_EQ(box.grown_error(object), before);
-    }
+    EXPECT_EQ(object.version, version + 1);
+    const float after = box.grown_error(object);
+    std::printf("the grown face %.2f mm off before, %.2f mm after\n", 1e3f * before, 1e3f * after);
+    // Both parts' point-to-point fits slide a little on faces sampled between the model's points (0.4 deg and
+    // 0.7 mm for the first view here): about half of the error goes.
+    EXPECT_LT(after, 0.6f * before);
+    manager.process(box.whole, box.whole_cluster, {{1, {right, 1.f}}});
+    EXPECT_EQ(object.version, version + 1);
   }
 }
 

@@ -20,12 +20,6 @@ namespace {
 
 const Eigen::Vector3f& kSize = test::kTestObjectSize;
 
-PartRefitOptions enabled() {
-  PartRefitOptions o;
-  o.enabled = true;
-  return o;
-}
-
 // The rotation vector (radians, object frame) of the least-squares rigid transform from one set of corresponding
 // points to another (Arun et al. 1987: the SVD of the cross-covariance).
 Eigen::Vector3d rigid_turn(std::span<const Eigen::Vector3f> from, std::span<const Eigen::Vector3f> to) {
@@ -122,7 +116,7 @@ TEST(PartRefit, AGrownPartMisplacedByItsGrowthPoseIsMovedBackOntoTheFirstView) {
   estimate.rotation =
       (Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(2.f), Eigen::Vector3f::UnitY())) * estimate.rotation)
           .normalized();
-  PartRefit refit(enabled());
+  PartRefit refit;
   EXPECT_EQ(refit.refit(box.scene, box.model, box.part_ends, estimate), 1u);
   const float after = box.grown_error();
   const float turn_after = box.grown_turn();
@@ -150,7 +144,7 @@ TEST(PartRefit, APartSeenOnlyInPartStaysWhereItGrew) {
   const std::vector<Eigen::Vector3f> scene = box.scene_showing(
       [](const Eigen::Vector3f& local) { return !GrownBox::on_grown_face(local) || local.x() >= 0.015f; });
   const std::vector<Eigen::Vector3f> model = box.model;
-  PartRefitOptions options = enabled();
+  PartRefitOptions options;
   options.min_points = 100;  // the 112 points shown are enough, and their spread: their coverage is what is short
   options.min_spread = 0.f;
   PartRefit refit(options);
@@ -169,11 +163,11 @@ TEST(PartRefit, NothingMovesWithoutTheFirstViewSeenWell) {
     return GrownBox::on_grown_face(local) || (test::face_normal(local, kSize).x() > 0.f && local.z() > 0.03f);
   });
   const std::vector<Eigen::Vector3f> model = box.model;
-  PartRefit refit(enabled());
+  PartRefit refit;
   EXPECT_EQ(refit.refit(scene, box.model, box.part_ends, box.truth), 0u);
   EXPECT_EQ(box.model, model);
   // Without the first view's gates the strip would place the object's frame, and the grown face with it.
-  PartRefitOptions ungated = enabled();
+  PartRefitOptions ungated;
   ungated.min_points = 3;
   ungated.min_spread = 0.f;
   ungated.min_coverage = 0.f;
@@ -198,7 +192,7 @@ TEST(PartRefit, APartIsNotTurnedAboutAnAxisTheFirstViewDoesNotHold) {
   lagging.rotation =
       (box.truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(-3.f), Eigen::Vector3f::UnitZ())))
           .normalized();
-  PartRefitOptions options = enabled();
+  PartRefitOptions options;
   options.min_coverage = 0.3f;  // the top is a third of the first view
   options.min_held_rotation = 0.f;
   GrownBox whole = box;
@@ -234,14 +228,10 @@ TEST(PartRefit, APartIsNotTurnedAboutAnAxisTheFirstViewDoesNotHold) {
   EXPECT_EQ(again.model, box.model);
 }
 
-TEST(PartRefit, OffOrWithOnePartItMovesNothing) {
+TEST(PartRefit, WithOnePartItMovesNothing) {
   GrownBox box;
   const std::vector<Eigen::Vector3f> model = box.model;
-  PartRefitOptions off = enabled();
-  off.enabled = false;
-  PartRefit disabled(off);
-  EXPECT_EQ(disabled.refit(box.scene, box.model, box.part_ends, box.truth), 0u);
-  PartRefit refit(enabled());
+  PartRefit refit;
   const std::vector<std::uint32_t> one_part{static_cast<std::uint32_t>(box.model.size())};
   EXPECT_EQ(refit.refit(box.scene, box.model, one_part, box.truth), 0u);
   EXPECT_EQ(box.model, model);
@@ -249,7 +239,7 @@ TEST(PartRefit, OffOrWithOnePartItMovesNothing) {
 
 TEST(PartRefit, RejectsPartsThatDoNotDescribeTheModel) {
   GrownBox box;
-  PartRefit refit(enabled());
+  PartRefit refit;
   const auto size = static_cast<std::uint32_t>(box.model.size());
   for (const std::vector<std::uint32_t>& ends :
        {std::vector<std::uint32_t>{}, std::vector<std::uint32_t>{size - 1}, std::vector<std::uint32_t>{20, 10, size}}) {
@@ -259,9 +249,9 @@ TEST(PartRefit, RejectsPartsThatDoNotDescribeTheModel) {
 }
 
 TEST(PartRefit, InvalidOptionsAreRejectedNamingTheField) {
-  EXPECT_NO_THROW(enabled().validate());
+  EXPECT_NO_THROW(PartRefitOptions{}.validate());
   const auto rejected = [](auto mutate, const std::string& field) {
-    PartRefitOptions o = enabled();
+    PartRefitOptions o;
     mutate(o);
     test::expect_invalid_argument([&] { o.validate(); }, "PartRefitOptions." + field);
     EXPECT_THROW(PartRefit{o}, std::invalid_argument);

@@ -59,8 +59,8 @@ SECTION_CASES = [
     ("merger", "merger:\n  alpha: 1.5\n", ["merger.alpha", "out of range [0.000000, 1.000000]"]),
     ("merger", "merger:\n  tau: 0\n", ["merger.tau", "out of range [0.000100, 0.100000]"]),
     ("merger", "merger:\n  world:\n    rotation: [2, 0, 0, 0]\n", ["merger.world", "unit quaternion"]),
-    # a setting the method's constants bound (a split is confirmed in 3 frames)
-    ("merger", "merger:\n  discovery:\n    confirm_frames: 2\n", ["merger.discovery.confirm_frames", "at least 3"]),
+    # a setting another one bounds (a model holds at least the points an object is born with)
+    ("merger", "merger:\n  max_model_points: 10\n", ["merger:", "max_model_points", "min_object_points"]),
 ]
 
 # Errors of the file itself, refused by every service: (name, file text, texts the error must contain).
@@ -120,7 +120,7 @@ class BadConfigTest(unittest.TestCase):
         # (not after its wait for every service's first status), saying why and exiting with the same status.
         config = Path(self.tmp.name) / "refused.yaml"
         config.write_text(f"group:\n  lcm_url: {LCM_URL}\n  ready_timeout_s: 60\n"
-                          "merger:\n  discovery:\n    confirm_frames: 2\n")
+                          "merger:\n  tau: 0\n")
         argv = [sys.executable, str(REPO / "scripts/mfot-run"), "--build-dir", str(BUILD), "--config", str(config),
                 "--scenario", "static", "--max-frames", "5", "--workers", "1", "--quiet",
                 "--out", str(Path(self.tmp.name) / "run")]
@@ -130,7 +130,7 @@ class BadConfigTest(unittest.TestCase):
             self.fail("mfot-run waited for the refusing service instead of stopping")
         output = res.stdout + res.stderr
         self.assertEqual(res.returncode, CONFIG_REFUSED, output)
-        self.assertIn("merger refused the configuration: merger.discovery.confirm_frames", output)
+        self.assertIn("merger refused the configuration: merger.tau", output)
         self.assertIn("before the source starts", output)
         self.assertNotIn("process group up", output)
 

@@ -152,11 +152,10 @@ TEST(Config, TheIcpKeysReachTheStep) {
 
 TEST(Config, ReidentificationKeysReachTheirOptions) {
   const MergerConfig m = load_merger_config(
-      with_defaults("tracker:\n  cell_size: 0.02\nmerger:\n  reidentify_register: false\n  reidentify_grown: false\n"));
-  EXPECT_FALSE(m.manager.reidentify_register);
-  EXPECT_FALSE(m.manager.reidentify_grown);
+      with_defaults("tracker:\n  cell_size: 0.02\nmerger:\n  reidentify_frames: 30\n  reidentify_similarity: 0.8\n"));
+  EXPECT_EQ(m.manager.reidentify_frames, 30);
+  EXPECT_FLOAT_EQ(m.manager.reidentify_similarity, 0.8f);
   const MergerConfig shipped = load_merger_config(with_defaults(""));
-  EXPECT_TRUE(shipped.manager.reidentify_grown);  // the shipped default
   // The method's constants (docs/method.md), not the option structs' thesis values: a box the hand brings back is
   // not swallowed by a few of the hand's points in its cluster, and a grown object is matched on enough of it.
   EXPECT_FLOAT_EQ(shipped.manager.propagation_min_seed_share, 0.1f);
@@ -168,48 +167,29 @@ TEST(Config, ReidentificationKeysReachTheirOptions) {
   EXPECT_FLOAT_EQ(shipped.manager.join_split.split_min_departure, 0.03f);
   // The registration scores like the trackers.
   EXPECT_FLOAT_EQ(m.manager.registration.cell_size, 0.02f);
-  for (const std::string key : {"reidentify_min_fit: 0.6", "propagation_min_seed_share: 1.5", "seen_radius: 0.01"}) {
+  // Switches of what always runs, and constants, are no keys.
+  for (const std::string key :
+       {"reidentify_min_fit: 0.6", "propagation_min_seed_share: 1.5", "seen_radius: 0.01", "reidentify_register: false",
+        "reidentify_grown: false", "join_frames: 0", "split_frames: 0"}) {
     expect_rejected(load_merger_config, "merger:\n  " + key + "\n", key.substr(0, key.find(':')));
   }
 }
 
-TEST(Config, CarryKeysReachTheManager) {
-  const MergerConfig m =
-      load_merger_config(with_defaults("merger:\n  carry:\n    frames: 7\n    seen_through_share: 0.35\n"));
-  EXPECT_EQ(m.manager.carry.frames, 7);
-  EXPECT_FLOAT_EQ(m.manager.carry.seen_through_share, 0.35f);
-  // An object gripped away while hidden is retired until it shows again (the method's; carrying it was lost).
-  EXPECT_EQ(m.manager.carry.gripped_away, CarryOptions::GrippedAway::kRetire);
-  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  carry:\n    frames: 0\n")).manager.carry.frames, 0);
-  for (const std::string key :
-       {"frames: -1", "seen_through_share: 1.5", "gripped_away: carry", "translation: 0.02", "speed: 1"}) {
-    expect_rejected(load_merger_config, "merger:\n  carry:\n    " + key + "\n", key.substr(0, key.find(':')));
-  }
-}
-
-TEST(Config, RefitKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults("merger:\n  refit:\n    enabled: false\n"));
-  EXPECT_FALSE(m.manager.refit.enabled);
-  const PartRefitOptions& r = load_merger_config(with_defaults("")).manager.refit;
-  EXPECT_TRUE(r.enabled);  // the shipped default
-  // The method's constants (docs/method.md), not the option struct's thesis values.
+TEST(Config, CarryCompanionAndRefitAreTheMethods) {
+  const MergerConfig m = load_merger_config(with_defaults(""));
+  // The method's constants (docs/method.md), not the option structs' thesis values (off).
+  EXPECT_EQ(m.manager.carry.frames, 10);
+  EXPECT_FLOAT_EQ(m.manager.carry.seen_through_share, 0.2f);
+  EXPECT_FLOAT_EQ(m.manager.companion.contact_distance, 0.02f);
+  EXPECT_EQ(m.manager.join_split.join_frames, 15);
+  EXPECT_EQ(m.manager.join_split.split_frames, 5);
+  const PartRefitOptions& r = m.manager.refit;
   EXPECT_NEAR(r.min_rotation, 0.5f * std::numbers::pi_v<float> / 180.f, 1e-7f);
   EXPECT_FLOAT_EQ(r.icp.min_paired_share, 0.8f);
   EXPECT_NEAR(r.icp.max_rotation, 10.f * std::numbers::pi_v<float> / 180.f, 1e-6f);
   EXPECT_EQ(r.icp.max_points, 1000);
-  for (const std::string key : {"min_points: 90", "icp_iterations: 7", "gain: 1"}) {
-    expect_rejected(load_merger_config, "merger:\n  refit:\n    " + key + "\n", key.substr(0, key.find(':')));
-  }
-}
-
-TEST(Config, CompanionKeysReachTheManagerAndTheFilter) {
-  const MergerConfig m = load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0.015\n"));
-  EXPECT_FLOAT_EQ(m.manager.companion.contact_distance, 0.015f);
-  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  companion:\n    contact_distance: 0\n"))
-                .manager.companion.contact_distance,
-            0.f);
-  for (const std::string key : {"contact_distance: 0.5", "min_motion: 0.002", "rate: 1"}) {
-    expect_rejected(load_merger_config, "merger:\n  companion:\n    " + key + "\n", key.substr(0, key.find(':')));
+  for (const std::string section : {"carry", "refit", "companion"}) {
+    expect_rejected(load_merger_config, "merger:\n  " + section + ":\n    frames: 7\n", section);
   }
 }
 
@@ -224,36 +204,23 @@ TEST(Config, VoxelJitterReachesThePreprocessorWithItsSeed) {
   expect_rejected(load_preprocess_config, "preprocess:\n  voxel_jitter: 3\n", "voxel_jitter");
 }
 
-TEST(Config, DiscoveryConfirmAndHeldBirthKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_frames: 20\n"));
-  EXPECT_EQ(m.manager.discovery.confirm_frames, 20);
+TEST(Config, DiscoveryKeysReachTheManager) {
+  const MergerConfig m = load_merger_config(with_defaults("merger:\n  discovery:\n    min_part_points: 300\n"));
+  EXPECT_EQ(m.manager.discovery.min_part_points, 300);
   EXPECT_EQ(m.manager.discovery.method, DiscoveryMethod::kLccp);  // the method's (the thesis: whole clusters)
-  EXPECT_TRUE(m.manager.discovery.confirm_join);                  // the shipped value
+  // The method's constants (docs/method.md): confirmed over 15 frames, boundaries drawn within 3 cm.
+  EXPECT_EQ(m.manager.discovery.confirm_frames, 15);
+  EXPECT_FLOAT_EQ(m.manager.discovery.boundary.radius, 0.03f);
   // The shipped supervoxel size: 2 cm finds the step between touching front faces that 3 cm straddles
   // (LccpDiscoveryOnSensorViews).
   EXPECT_FLOAT_EQ(m.manager.discovery.seed_resolution, 0.02f);
-  // The shipped colour cut: a synthetic pile's touching objects come apart (PileDiscovery).
+  // The shipped colour cut: off (convexity alone).
   EXPECT_FLOAT_EQ(m.manager.discovery.color_cut, 0.f);
-  EXPECT_FALSE(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_join: false\n"))
-                   .manager.discovery.confirm_join);
-  for (const std::string key :
-       {"confirm_frames: -1", "confirm_votes: 4", "confirm_join: 3", "color_cut: 201", "method: clusters"}) {
+  for (const std::string key : {"confirm_frames: 20", "confirm_votes: 4", "confirm_join: false", "color_cut: 201",
+                                "method: clusters", "boundary_radius: 0.02", "min_part_points: 0"}) {
     expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
   }
   expect_rejected(load_merger_config, "merger:\n  new_object_held_margin: 0.05\n", "new_object_held_margin");
-  // Fewer frames than the votes a split needs: refused, named.
-  expect_rejected(load_merger_config, "merger:\n  discovery:\n    confirm_frames: 2\n", "confirm_frames");
-  EXPECT_EQ(load_merger_config(with_defaults("merger:\n  discovery:\n    confirm_frames: 0\n"))
-                .manager.discovery.confirm_frames,
-            0);
-}
-
-TEST(Config, DiscoveryBoundaryKeysReachTheManager) {
-  const MergerConfig m = load_merger_config(with_defaults("merger:\n  discovery:\n    boundary_radius: 0.02\n"));
-  EXPECT_FLOAT_EQ(m.manager.discovery.boundary.radius, 0.02f);
-  for (const std::string key : {"boundary_radius: -0.01", "boundary_radius: 0.5", "boundary_color_ratio: 8"}) {
-    expect_rejected(load_merger_config, "merger:\n  discovery:\n    " + key + "\n", key.substr(0, key.find(':')));
-  }
 }
 
 TEST(Config, MissingFileAndSyntaxErrorsAreClear) {

@@ -31,17 +31,7 @@ const std::set<std::string> kStructKeepsTheThesis = {
     "tracker.queue_scenes",
     "merger.alpha",
     "merger.propagation_min_seed_share",
-    "merger.reidentify_grown",
     "merger.discovery.seed_resolution",
-    "merger.discovery.confirm_frames",
-    "merger.discovery.confirm_join",
-    "merger.discovery.boundary_radius",
-    "merger.join_frames",
-    "merger.split_frames",
-    "merger.carry.frames",
-    "merger.carry.seen_through_share",
-    "merger.companion.contact_distance",
-    "merger.refit.enabled",
 };
 
 template <class T>

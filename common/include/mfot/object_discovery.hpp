@@ -57,12 +57,11 @@ struct DiscoveryOptions {
   int confirm_frames = 0;
   int confirm_votes = 3;
   float confirm_max_motion = 0.01f;
-  // The other way round: two objects born from one cluster whose points lay mostly in one part in every frame
-  // they were split again, and in at least confirm_frames - confirm_votes + 1 of them, are one object (the
-  // birth frame's noise cut it): when the first of them leaves the confirmation, the smaller joins the larger.
-  // A pair seen apart in any frame stays apart: the discovery finds touching objects as one in some frames, so
+  // The other way round (with confirm_frames > 0): two objects born from one cluster whose points lay mostly in one
+  // part in every frame they were split again, and in at least confirm_frames - confirm_votes + 1 of them, are one
+  // object (the birth frame's noise cut it): when the first of them leaves the confirmation, the smaller joins the
+  // larger. A pair seen apart in any frame stays apart: the discovery finds touching objects as one in some frames, so
   // agreeing frames alone say less than one frame that tells them apart.
-  bool confirm_join = false;
   // Point-level boundaries between the parts by colour (part_boundary.hpp), applied to every split
   // by the ObjectManager; radius 0 = off (parts end at supervoxel borders).
   PartBoundaryOptions boundary;

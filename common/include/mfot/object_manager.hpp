@@ -90,20 +90,17 @@ struct ObjectManagerOptions {
   // distribution matches a remembered one's (its last model's or its first, partial view's) takes its id back (a hand
   // leaving the view and reaching in again, an object lost and found again), so ids stay stable for controllers.
   int reidentify_frames = 900;
-  // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1].
+  // Least Bhattacharyya coefficient of the two SMR colour histograms for a match, (0, 1]. A re-identified object's
+  // remembered model is registered on its new points (ModelRegistration): when that succeeds the object keeps its
+  // frame (its pose goes on where it left off) and its whole model, the new points added; otherwise it starts from
+  // a new model and frame under its old id.
   float reidentify_similarity = 0.9f;
-  // A re-identified object's remembered model is registered on its new points
-  // (ModelRegistration): when that succeeds the object keeps its frame (its pose goes on where it
-  // left off) and its whole model, the new points added; otherwise, or with false, it starts
-  // from a new model and frame under its old id.
-  bool reidentify_register = true;
   // A young object (growth_frames) that took no remembered id when it was born is matched again each frame its model
   // grows, against the objects retired by its birth: the first piece of a returning object (a corner showing in the
   // hand that brings it back) may show too little for its colours to match, its grown model matches. On a match it
   // takes the remembered id back as at birth (retired under its own id, created under the remembered one, its
-  // points registered with reidentify_register). false = at birth only.
-  bool reidentify_grown = false;
-  // ... and only once its model holds at least this share of the remembered model's points: a piece in the hand
+  // points registered) ...
+  // ... but only once its model holds at least this share of the remembered model's points: a piece in the hand
   // that brings the object back registers the remembered model on too little of it (a few degrees of a turn fit
   // it as well), and the merged model and the pose carry that error until the object is seen whole. [0, 1]; 0 =
   // as soon as its colours match.
@@ -128,8 +125,7 @@ struct ObjectManagerOptions {
   // Each seen object's companion: the touching object whose last step its filter may follow
   // (companion_motion.hpp; contact_distance 0 = off, the thesis).
   CompanionOptions companion;
-  // Grown parts re-fitted on the first view where a frame shows both well (PartRefit; enabled false =
-  // off, the thesis keeps no parts).
+  // Grown parts re-fitted on the first view where a frame shows both well (PartRefit; the thesis keeps no parts).
   PartRefitOptions refit;
   void validate() const;
 };
@@ -173,8 +169,8 @@ struct ObjectManagerFrame {
   std::vector<std::int32_t> retired;                          // ids retired this frame (joined ones too)
   std::vector<std::pair<std::int32_t, std::int32_t>> joined;  // (kept, joined into it) this frame
   std::vector<std::pair<std::int32_t, std::int32_t>> split;   // (split, new object from its part)
-  // (young, remembered) this frame: a young object took a remembered id back once grown (reidentify_grown); young is
-  // in retired, remembered in created.
+  // (young, remembered) this frame: a young object took a remembered id back once grown; young is in retired,
+  // remembered in created.
   std::vector<std::pair<std::int32_t, std::int32_t>> reidentified;
   // (object, sibling) this frame: confirm_discovery gave points of the object to the sibling whose part they lie in.
   std::vector<std::pair<std::int32_t, std::int32_t>> regrouped;
@@ -185,10 +181,10 @@ struct ObjectManagerFrame {
 // Thesis 3.1 / 3.4 per frame, after the trackers' estimates (3.3) of that frame. Steps:
 //   1. take each object's estimate (an object without one keeps its pose and is marked stale);
 //      with carry.frames > 0, a hidden object that moved with a touching object before it was hidden
-//      follows that object's motion instead (CarryMonitor), and with carry.seen_through_share > 0 so
-//      does one gripped while hidden whose place the scene shows empty (OcclusionTest's
-//      seen_through_share, on this frame's scene), or, with carry.gripped_away kRetire, that one is
-//      retired in step 4 (re-identified when it shows again); with companion.contact_distance > 0,
+//      follows that object's motion instead (CarryMonitor), and with carry.seen_through_share > 0
+//      one gripped while hidden whose place the scene shows empty (OcclusionTest's seen_through_share,
+//      on this frame's scene) is retired in step 4 (re-identified when it shows again); with
+//      companion.contact_distance > 0,
 //      each object's companion is chosen (companion_motion.hpp);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
 //   3. update every non-stale object's model with alpha (3.4);
@@ -207,18 +203,18 @@ struct ObjectManagerFrame {
 //      boundaries then drawn point by point by colour (part_boundary.hpp); a new
 //      model is the points in a frame at their centroid, axis-aligned with the camera. A new
 //      object whose SMR colour histogram matches a recently retired object's takes that id
-//      back, and with reidentify_register its remembered model is registered on the new points
-//      so that it keeps its object frame (else its model and frame are new: the pose jumps once); a new
+//      back, and its remembered model is registered on the new points so that it keeps its object
+//      frame (when that fails its model and frame are new: the pose jumps once); a new
 //      object whose histogram matches an object carried this frame (step 1) whose model registers on its
 //      points is that object seen again, its carried pose a guess too far off for tau: it takes the points,
-//      the registered pose and the merged model, and no object is born; with
-//      reidentify_grown, a young object grown in step 5 that matched none at birth is matched again so,
-//      once its model holds reidentify_grown_min_share of the remembered model's points;
+//      the registered pose and the merged model, and no object is born; a young object grown in step 5
+//      that matched none at birth is matched again so, once its model holds reidentify_grown_min_share
+//      of the remembered model's points;
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
 //      one cluster, discover their points again together: once that disagreed with them in
-//      confirm_votes frames, its parts become the objects, and with confirm_join two of them that it never told
-//      apart are one (DiscoveryOptions).
+//      confirm_votes frames, its parts become the objects, and two of them that it never told apart are
+//      one (DiscoveryOptions).
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -284,7 +280,7 @@ class ObjectManager {
   // Step 6: the carried object id takes points when its model registers on them (keep_frame): its pose, model and
   // labels; false (nothing changed) when it does not register or there is no registration.
   bool take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points);
-  // Step 6 (reidentify_grown): the objects of grown_ born unknown that match a remembered one now take its id.
+  // Step 6: the objects of grown_ born unknown that match a remembered one now take its id.
   void reidentify_grown_objects(const ColoredCloud& scene);
 
   // A cluster's points that no object explains (label 0): only they form new models.
@@ -341,10 +337,10 @@ class ObjectManager {
     bool disagrees(std::size_t min_piece) const;
   };
   PartMatch match_parts(const std::vector<std::vector<int>>& parts) const;
-  // confirm_join: counts, for each pair of the birth's objects, whether the part holding most of one's points
+  // Step 7: counts, for each pair of the birth's objects, whether the part holding most of one's points
   // holds most of the other's too.
   void watch_siblings(const std::map<std::int32_t, std::vector<int>>& members, const PartMatch& match);
-  // confirm_join: the pairs with an object that leaves the confirmation are decided (the smaller of a pair never
+  // Step 7: the pairs with an object that leaves the confirmation are decided (the smaller of a pair never
   // seen apart, in enough frames, joins the larger) and forgotten.
   void join_unparted_siblings(std::span<const std::int32_t> leaving);
   // This frame's parts become the objects: an object keeps its part (model rebuilt from it; other objects' points
@@ -389,8 +385,8 @@ class ObjectManager {
   std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
   std::map<std::int32_t, RetiredObject> retired_;
   std::map<std::int32_t, ColorHistogram> first_seen_;  // per live object
-  std::set<std::int32_t> born_unknown_;  // live objects that took no remembered id at birth (reidentify_grown)
-  std::vector<std::int32_t> grown_;      // objects whose models grew this frame (step 5)
+  std::set<std::int32_t> born_unknown_;                // live objects that took no remembered id at birth
+  std::vector<std::int32_t> grown_;                    // objects whose models grew this frame (step 5)
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
   // Step 7 state: siblings share the discovery split they were born from; a pair's relative pose
@@ -411,7 +407,7 @@ class ObjectManager {
   std::map<std::int32_t, Eigen::Vector3f> confirm_born_at_;
   std::map<std::uint64_t, int> confirm_votes_;
   // Per pair of siblings (lower id first) in the confirmation: frames in which most of their points lay in one
-  // part, and in different parts (DiscoveryOptions::confirm_join).
+  // part, and in different parts.
   struct SiblingWatch {
     int together = 0;
     int apart = 0;
@@ -422,7 +418,7 @@ class ObjectManager {
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
   std::optional<ViewBounds> view_;
-  // This frame's objects gripped away while hidden, to retire (carry.gripped_away).
+  // This frame's objects gripped away while hidden, to retire.
   std::vector<std::int32_t> gripped_away_;
   std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
   std::map<std::int32_t, float> model_radius_;
@@ -434,7 +430,7 @@ class ObjectManager {
   std::vector<int> confirmed_;
   ColoredCloud segment_;
   SpatialHash wave_hash_{0.015f};
-  std::unique_ptr<ModelRegistration> registration_;  // with reidentify_register
+  std::unique_ptr<ModelRegistration> registration_;
   HypothesisData registration_points_;
   std::vector<int> free_, wave_, next_wave_;
   std::vector<std::int32_t> wave_labels_;

@@ -47,10 +47,9 @@
 
 namespace mfot {
 
-// Member defaults: for library users and unit tests; the services fill every field from
-// configs/default.yaml (merger.refit_*).
+// Member defaults: for library users and unit tests; the services set min_rotation and icp's min_paired_share,
+// max_rotation and max_points (docs/method.md, Constants).
 struct PartRefitOptions {
-  bool enabled = false;            // false: refit() moves nothing (the model keeps each part where it grew)
   int min_points = 150;            // scene points a part needs to take part [3, 1000000]
   float min_spread = 0.01f;        // their second largest standard deviation, metres [0, 1]
   float min_coverage = 0.5f;       // share of the part's model points they come near [0, 1]

@@ -40,6 +40,13 @@ constexpr float kReidentifyGrownMinShare = 0.5f;     // a grown object is matche
 constexpr float kNewObjectHeldMargin = 0.02f;        // unexplained points this near a held object's box are its own
 constexpr float kSplitMinDeparture = 0.03f;          // a part splits off once it departed this far
 constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less (and moved less) stays
+constexpr int kDiscoveryConfirmFrames = 15;          // the discovery is confirmed over an object's first frames
+constexpr float kPartBoundaryRadius = 0.03f;         // points this near another discovered part may move to it
+constexpr int kJoinFrames = 15;                      // frames objects born together move as one before they join
+constexpr int kSplitFrames = 5;                      // frames an object lies in parts before it splits
+constexpr int kCarryFrames = 10;                     // frames a hidden object moved with its carrier before
+constexpr float kCarrySeenThroughShare = 0.2f;       // a hidden object's held place seen through: gripped away
+constexpr float kCompanionContactDistance = 0.02f;   // models this close touch: a companion's motion is followed
 constexpr float kRefitIcpMinPairedShare = 0.8f;
 constexpr float kRefitIcpMaxRotationDeg = 10.f;
 constexpr int kRefitIcpMaxPoints = 1000;
@@ -152,8 +159,6 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.propagation_min_seed_share = read_option<float>(s, "propagation_min_seed_share");
   c.manager.reidentify_frames = read_option<int>(s, "reidentify_frames");
   c.manager.reidentify_similarity = read_option<float>(s, "reidentify_similarity");
-  c.manager.reidentify_register = read_option<bool>(s, "reidentify_register");
-  c.manager.reidentify_grown = read_option<bool>(s, "reidentify_grown");
   c.manager.reidentify_grown_min_share = kReidentifyGrownMinShare;
   c.manager.registration.seed = c.manager.model_update.seed;
   {
@@ -184,35 +189,20 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.discovery.seed_resolution = read_option<float>(discovery, "seed_resolution");
   c.manager.discovery.color_cut = read_option<float>(discovery, "color_cut");
   c.manager.discovery.min_part_points = read_option<int>(discovery, "min_part_points");
-  c.manager.discovery.confirm_frames = read_option<int>(discovery, "confirm_frames");
-  if (c.manager.discovery.confirm_frames > 0 &&
-      c.manager.discovery.confirm_frames < c.manager.discovery.confirm_votes) {
-    throw ConfigError(
-        "merger.discovery.confirm_frames: 0 (off) or at least " + std::to_string(c.manager.discovery.confirm_votes) +
-        " (the frames a split is confirmed in), got " + std::to_string(c.manager.discovery.confirm_frames));
-  }
-  c.manager.discovery.confirm_join = read_option<bool>(discovery, "confirm_join");
-  c.manager.discovery.boundary.radius = read_option<float>(discovery, "boundary_radius");
+  c.manager.discovery.confirm_frames = kDiscoveryConfirmFrames;
+  c.manager.discovery.boundary.radius = kPartBoundaryRadius;
   discovery.finish();
   auto& js = c.manager.join_split;
-  js.join_frames = read_option<int>(s, "join_frames");
-  js.split_frames = read_option<int>(s, "split_frames");
+  js.join_frames = kJoinFrames;
+  js.split_frames = kSplitFrames;
   js.split_min_departure = kSplitMinDeparture;
-  auto carry = s.section("carry");
-  c.manager.carry.frames = read_option<int>(carry, "frames");
-  c.manager.carry.seen_through_share = read_option<float>(carry, "seen_through_share");
-  c.manager.carry.gripped_away = CarryOptions::GrippedAway::kRetire;
-  carry.finish();
-  auto companion = s.section("companion");
-  c.manager.companion.contact_distance = read_option<float>(companion, "contact_distance");
-  companion.finish();
-  auto refit = s.section("refit");
-  c.manager.refit.enabled = read_option<bool>(refit, "enabled");
+  c.manager.carry.frames = kCarryFrames;
+  c.manager.carry.seen_through_share = kCarrySeenThroughShare;
+  c.manager.companion.contact_distance = kCompanionContactDistance;
   c.manager.refit.min_rotation = kRefitMinRotationDeg * kRadiansPerDegree;
   c.manager.refit.icp.min_paired_share = kRefitIcpMinPairedShare;
   c.manager.refit.icp.max_rotation = kRefitIcpMaxRotationDeg * kRadiansPerDegree;
   c.manager.refit.icp.max_points = kRefitIcpMaxPoints;
-  refit.finish();
   auto world = s.section("world");
   const auto t = read_list(world, "translation");
   const auto q = read_list(world, "rotation");
