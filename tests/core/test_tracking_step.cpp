@@ -136,19 +136,26 @@ TEST(TrackingStep, LeavesThePointsAnotherObjectClaimsOutOfTheLikelihood) {
   options.exclude_claimed_radius = 0.01f;
   EXPECT_FLOAT_EQ(options.claimed_margin(), 0.06f);
   TrackingStep step(options);
+  // Nothing claimed yet: every point is scored, the fingers too (the occlusion test keeps them); the object is
+  // isolated (its own filter, so that the claimed frames below start from the truth).
+  {
+    ParticleFilter isolated_filter(filter_options());
+    isolated_filter.reset(setup.truth);
+    const TrackingStepResult unclaimed = step.track(scene, setup.model, box, isolated_filter, likelihood);
+    EXPECT_TRUE(unclaimed.isolated);
+    EXPECT_EQ(unclaimed.claimed_removed, 0u);
+    EXPECT_EQ(unclaimed.occluders_removed, 0u);
+    EXPECT_EQ(unclaimed.hypothesis_points, scene.size());
+  }
   ParticleFilter filter(filter_options());
   filter.reset(setup.truth);
-  // Nothing claimed yet: every point is scored, the fingers too (the occlusion test keeps them).
-  const TrackingStepResult unclaimed = step.track(scene, setup.model, box, filter, likelihood);
-  EXPECT_EQ(unclaimed.claimed_removed, 0u);
-  EXPECT_EQ(unclaimed.occluders_removed, 0u);
-  EXPECT_EQ(unclaimed.hypothesis_points, scene.size());
 
   // The hand's model claims the fingers: exactly they are left out; the box's own face 5 mm away
   // is nearer to the box's model and stays.
   step.set_claimed_points(setup.fingers);
   for (int frame = 0; frame < 30; ++frame) {
     const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
+    ASSERT_FALSE(r.isolated) << "frame " << frame;
     ASSERT_EQ(r.claimed_removed, setup.fingers.size()) << "frame " << frame;
     ASSERT_EQ(r.hypothesis_points, box_points) << "frame " << frame;
     for (const Rgb8& c : step.hypothesis().colors) ASSERT_FALSE(c == kSkin) << "a finger was scored";

@@ -186,7 +186,7 @@ TEST(Options, TheLoadersRefuseExactlyOutsideTheDeclaredRanges) {
       ++checked;
     }
   }
-  EXPECT_GT(checked, 80);  // the loop reached the declared bounds (140 of them after the merger's prune)
+  EXPECT_GT(checked, 80);  // the loop reached the bounds of every ranged option
 }
 
 }  // namespace

@@ -22,7 +22,7 @@
 namespace mfot {
 
 // Member defaults: for library users and unit tests; the services fill every field from
-// configs/default.yaml (tracker.icp_*).
+// configs/default.yaml (tracker.icp_*) and the method's constants (docs/method.md).
 struct IcpRefinementOptions {
   int iterations = 0;          // [0, 50]; 0 = off (the estimate stays)
   float max_distance = 0.01f;  // a scene point pairs with the nearest model point this close, metres (0, 0.1]

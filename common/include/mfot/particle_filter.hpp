@@ -30,7 +30,7 @@ struct StepMotion {
 // (tests/core/test_particle_filter.cpp): 3 mm / 1 degree diffusion keeps a 2 cm + 10 degree per
 // frame motion captured once dX is known, and a sharp lambda keeps the weighted mean precise.
 // Member defaults: the thesis's values, for library users and unit tests; the services and
-// mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
+// mfot-inprocess fill every field from configs/default.yaml and the method's constants (docs/method.md).
 struct ParticleFilterOptions {
   int num_particles = 200;  // [1, 1000000]; the thesis runs 100 to 200
   // Standard deviations of C_init (2.12) over (x, y, z, roll, pitch, yaw): metres, radians; >= 0.

@@ -21,7 +21,7 @@
 namespace mfot {
 
 // Member defaults: the thesis's values, for library users and unit tests; the services and
-// mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
+// mfot-inprocess fill every field from configs/default.yaml and the method's constants (docs/method.md).
 struct TrackingStepOptions {
   HypothesisOptions hypothesis;
   // Colour feature of the scored points (the models' features must use the same options).
