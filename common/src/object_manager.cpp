@@ -91,6 +91,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       support_(options.support),
       occlusion_(options.occlusion),
       refit_(options.refit),
+      retired_(options.reidentify_similarity),
       carry_(options.carry),
       wave_hash_(std::max(options.propagation_radius, 1e-3f)),
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
@@ -124,10 +125,35 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   frame_.retired.clear();
   frame_.reidentified.clear();
   frame_.found_carried.clear();
+  frame_.joined.clear();
+  frame_.split.clear();
+  frame_.regrouped.clear();
   gripped_away_.clear();
   grown_.clear();
+  occlusion_scene_set_ = false;  // scene_occlusion() indexes this frame's scene once, when a step needs it
 
-  // 1. estimates
+  // 1. estimates; hidden objects carried, companions chosen
+  take_estimates(estimates);
+  if (options_.carry.frames > 0) carry_hidden(scene);
+  if (options_.companion.contact_distance > 0.f) choose_companions();
+  // 2. segmentation (3.22, 3.23)
+  segment(scene);
+  // 3. model update (3.4); grown parts re-fitted on the first view
+  update_models(scene);
+  refit_parts(scene);
+  // 4. retire objects without support, unless hidden; and those gripped away
+  retire_unsupported(scene);
+  // 5. labels propagated, young models grown; 6. new objects from clusters no object explains, re-identified
+  index_clusters(cluster_of_point);
+  propagate_and_create(scene);
+  // 7. join parts that move as one, split objects whose parts moved apart, confirm the discovery
+  join_and_split(scene, cluster_of_point);
+  std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
+  ++frames_;
+  return frame_;
+}
+
+void ObjectManager::take_estimates(const std::map<std::int32_t, ObjectEstimate>& estimates) {
   for (auto& [id, object] : objects_) {
     object.carried_by = 0;
     object.held = false;
@@ -138,48 +164,46 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       object.stale = true;
       continue;
     }
-    if (options_.carry.frames > 0 && it->second.held) previous_poses_[id] = object.pose;  // it may be carried
+    if (options_.carry.frames > 0 && it->second.held) tracked_.at(id).pose_before = object.pose;  // may be carried
     object.velocity = pose_difference(object.pose, it->second.pose);
     object.pose = it->second.pose;
     object.confidence = it->second.confidence;
     object.held = it->second.held;
     object.stale = false;
   }
-
   if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f) {
     // The bounding spheres of the touch tests' prefilter.
     touch_memo_.clear();
-    model_radius_.clear();
     for (const auto& [id, object] : objects_) {
       float radius = 0.f;
       for (const Eigen::Vector3f& p : object.model.cloud.positions) radius = std::max(radius, p.norm());
-      model_radius_[id] = radius;
+      tracked_.at(id).model_radius = radius;
     }
   }
-  occlusion_scene_set_ = false;  // scene_occlusion() indexes this frame's scene once, when a step needs it
-  if (options_.carry.frames > 0) carry_hidden(scene);
-  if (options_.companion.contact_distance > 0.f) choose_companions();
+}
 
-  // 2. segmentation (3.22, 3.23)
+void ObjectManager::segment(const ColoredCloud& scene) {
   seg_objects_.clear();
   for (const auto& [id, object] : objects_) {
     seg_objects_.push_back({id, object.model.cloud.positions, object.pose});
   }
   segmenter_.segment(scene.positions, seg_objects_, segmentation_);
   frame_.labels = segmentation_.labels;
+}
 
-  // 3. model update (3.4)
+void ObjectManager::update_models(const ColoredCloud& scene) {
   for (std::size_t k = 0; k < segmentation_.object_ids.size(); ++k) {
     ManagedObject& object = objects_.at(segmentation_.object_ids[k]);
     object.support = segmentation_.counts[k];
     if (object.stale || object.support == 0 || options_.model_update.alpha <= 0.f) continue;
-    object.model = updaters_.at(object.id)->update(object.model, scene, segmentation_.labels, object.id, object.pose);
+    object.model =
+        tracked_.at(object.id).updater->update(object.model, scene, segmentation_.labels, object.id, object.pose);
     object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));  // mixed: one part
     ++object.version;
   }
-  refit_parts(scene);
+}
 
-  // 4. retire objects without support, unless hidden
+void ObjectManager::retire_unsupported(const ColoredCloud& scene) {
   hidden_.assign(segmentation_.object_ids.size(), 0);
   for (std::size_t k = 0; k < segmentation_.object_ids.size(); ++k) {
     if (options_.hidden_occluded_share <= 0.f || segmentation_.counts[k] >= options_.support.min_points) continue;
@@ -199,8 +223,8 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   for (const std::int32_t id : frame_.retired) {
     if (options_.reidentify_frames > 0) {
       const ManagedObject& object = objects_.at(id);
-      retired_[id] = {frames_,     object.version,  color_histogram(object.model), first_seen_.at(id), object.model,
-                      object.pose, object.part_ends};
+      retired_.remember(id, {frames_, object.version, color_histogram(object.model), tracked_.at(id).first_seen,
+                             object.model, object.pose, object.part_ends});
     }
     forget(id);
   }
@@ -210,50 +234,47 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
       if (label != 0 && !objects_.contains(label)) label = 0;
     }
   }
-  std::erase_if(retired_,
-                [&](const auto& entry) { return frames_ - entry.second.retired_frame >= options_.reidentify_frames; });
+  retired_.expire(frames_, options_.reidentify_frames);
+}
 
-  // 5. new objects from clusters no object explains
+void ObjectManager::index_clusters(std::span<const std::int32_t> cluster_of_point) {
   clusters_.point_indices.clear();
   clusters_.offsets.assign(1, 0);
   clusters_.cluster_of_point.assign(cluster_of_point.begin(), cluster_of_point.end());
   std::int32_t num_clusters = 0;
   for (const std::int32_t c : cluster_of_point) num_clusters = std::max(num_clusters, c + 1);
-  {
-    std::vector<int> sizes(static_cast<std::size_t>(num_clusters), 0);
-    for (const std::int32_t c : cluster_of_point) {
-      if (c >= 0) ++sizes[static_cast<std::size_t>(c)];
-    }
-    for (const int s : sizes) clusters_.offsets.push_back(clusters_.offsets.back() + s);
-    clusters_.point_indices.resize(static_cast<std::size_t>(clusters_.offsets.back()));
-    std::vector<int> fill(clusters_.offsets.begin(), clusters_.offsets.end() - 1);
-    for (std::size_t i = 0; i < cluster_of_point.size(); ++i) {
-      const std::int32_t c = cluster_of_point[i];
-      if (c >= 0)
-        clusters_.point_indices[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(i);
-    }
+  std::vector<int> sizes(static_cast<std::size_t>(num_clusters), 0);
+  for (const std::int32_t c : cluster_of_point) {
+    if (c >= 0) ++sizes[static_cast<std::size_t>(c)];
   }
-  if (frames_ == 0 && objects_.empty()) {
+  for (const int s : sizes) clusters_.offsets.push_back(clusters_.offsets.back() + s);
+  clusters_.point_indices.resize(static_cast<std::size_t>(clusters_.offsets.back()));
+  std::vector<int> fill(clusters_.offsets.begin(), clusters_.offsets.end() - 1);
+  for (std::size_t i = 0; i < cluster_of_point.size(); ++i) {
+    const std::int32_t c = cluster_of_point[i];
+    if (c >= 0)
+      clusters_.point_indices[static_cast<std::size_t>(fill[static_cast<std::size_t>(c)]++)] = static_cast<int>(i);
+  }
+}
+
+void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
+  if (frames_ == 0 && objects_.empty()) {  // the first frame: every cluster, nothing to propagate
     for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, unexplained_points(clusters_.cluster(c)));
-  } else {
-    for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));
-    detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);
-    for (const int c : confirmed_) {
-      const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
-      if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
-    }
+    return;
+  }
+  for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
+  detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);                           // 6
+  for (const int c : confirmed_) {
+    const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
+    if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
   }
   if (!grown_.empty()) reidentify_grown_objects(scene);
-  // 7. join parts that move as one, split objects whose parts moved apart
-  frame_.joined.clear();
-  frame_.split.clear();
-  frame_.regrouped.clear();
+}
+
+void ObjectManager::join_and_split(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point) {
   if (options_.join_split.join_frames > 0) join_rigid_parts();
   if (options_.join_split.split_frames > 0) split_separated_parts(scene, cluster_of_point);
   if (discovery_ && options_.discovery.confirm_frames > 0) confirm_discovery(scene);
-  std::sort(frame_.created.begin(), frame_.created.end());  // a re-identified id may be older
-  ++frames_;
-  return frame_;
 }
 
 std::vector<int> ObjectManager::unexplained_points(std::span<const int> cluster_points) const {
@@ -417,50 +438,12 @@ void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene,
   ++object.version;
 }
 
-ObjectManager::ColorHistogram ObjectManager::color_histogram(const ObjectModel& model) {
-  ColorHistogram histogram{};
-  float total = 0.f;
-  for (const SmrFeature& f : model.features) {
-    histogram[f.hue_bin] += f.hue_weight_lo;
-    histogram[(f.hue_bin + 1) % 6] += f.hue_weight_hi;
-    histogram[f.gray_bin] += f.gray_weight;
-    total += f.hue_weight_lo + f.hue_weight_hi + f.gray_weight;
-  }
-  if (total > 0.f) {
-    for (float& h : histogram) h /= total;
-  }
-  return histogram;
-}
-
-float ObjectManager::similarity_of(const ColorHistogram& a, const ColorHistogram& b) {
-  float coefficient = 0.f;  // Bhattacharyya
-  for (int k = 0; k < kSmrBins; ++k) coefficient += std::sqrt(a[k] * b[k]);
-  return coefficient;
-}
-
-std::int32_t ObjectManager::reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const {
-  std::int32_t best = 0;
-  float best_similarity = options_.reidentify_similarity;
-  for (const auto& [id, retired] : retired_) {  // ascending ids: ties keep the oldest
-    if (retired.retired_frame > retired_by) continue;
-    // An object grown while entering (a hand and its arm) may come back showing only what it
-    // showed first: either view may match.
-    const float similarity =
-        std::max(similarity_of(histogram, retired.histogram), similarity_of(histogram, retired.first_seen));
-    if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
-      best = id;
-      best_similarity = similarity;
-    }
-  }
-  return best;
-}
-
 std::int32_t ObjectManager::carried_match(const ColorHistogram& histogram) const {
   std::int32_t best = 0;
   float best_similarity = options_.reidentify_similarity;
   for (const auto& [id, object] : objects_) {  // ascending ids: ties keep the oldest
     if (object.carried_by == 0) continue;
-    const float similarity = similarity_of(histogram, color_histogram(object.model));
+    const float similarity = color_similarity(histogram, color_histogram(object.model));
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
       best_similarity = similarity;
@@ -512,7 +495,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
   object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   const ColorHistogram histogram = color_histogram(object.model);
-  const std::int32_t known = frames_ > 0 ? reidentify(histogram, frames_) : 0;
+  const std::int32_t known = frames_ > 0 ? retired_.match(histogram, frames_) : 0;
   if (known == 0 && options_.carry.frames > 0) {
     const std::int32_t carried = carried_match(histogram);
     if (carried != 0 && take_points_carried(carried, scene, free_points)) return;
@@ -522,25 +505,29 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   } else {
     if (next_id_ > kMaxObjectId) return;  // every id given (kMaxObjectId): no new object, never an overflow
     object.id = next_id_++;
-    born_unknown_.insert(object.id);
   }
   object.support = free_points.size();
-  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_born_at_[object.id] = object.pose.translation;
-  add_object(std::move(object), free_points, histogram, current_birth_);
+  const bool born_unknown = known == 0;
+  const Eigen::Vector3f born_at = object.pose.translation;
+  TrackedObject& tracked = add_object(std::move(object), free_points, histogram, current_birth_);
+  tracked.born_unknown = born_unknown;
+  if (discovery_ && options_.discovery.confirm_frames > 0) tracked.confirm_born_at = born_at;
 }
 
-void ObjectManager::add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
-                               std::uint64_t birth) {
+TrackedObject& ObjectManager::add_object(ManagedObject object, std::span<const int> points,
+                                         const ColorHistogram& first_seen, std::uint64_t birth) {
   object.confidence = 1.f;
   object.created_frame = frames_;
   for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = object.id;
   ModelUpdateOptions update = options_.model_update;
   update.seed = options_.model_update.seed + static_cast<std::uint64_t>(object.id);
-  updaters_.emplace(object.id, std::make_unique<ModelUpdater>(update));
-  first_seen_[object.id] = first_seen;
-  birth_[object.id] = birth;
+  TrackedObject& tracked = tracked_[object.id];
+  tracked.updater = std::make_unique<ModelUpdater>(update);
+  tracked.first_seen = first_seen;
+  tracked.birth = birth;
   frame_.created.push_back(object.id);
   objects_.emplace(object.id, std::move(object));
+  return tracked;
 }
 
 void ObjectManager::resume_object(ManagedObject object) {
@@ -568,10 +555,11 @@ void ObjectManager::resume_object(ManagedObject object) {
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);  // this manager's SMR options
   ModelUpdateOptions update = options_.model_update;
   update.seed = options_.model_update.seed + static_cast<std::uint64_t>(id);
-  updaters_.emplace(id, std::make_unique<ModelUpdater>(update));
-  first_seen_[id] = color_histogram(object.model);
-  birth_[id] = next_birth_++;  // born alone: never joined as a sibling
-  retired_.erase(id);
+  TrackedObject& tracked = tracked_[id];
+  tracked.updater = std::make_unique<ModelUpdater>(update);
+  tracked.first_seen = color_histogram(object.model);
+  tracked.birth = next_birth_++;  // born alone: never joined as a sibling
+  retired_.forget(id);
   next_id_ = std::max(next_id_, id + 1);
   objects_.emplace(id, std::move(object));
 }
@@ -584,15 +572,15 @@ void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, 
   if (keep_frame(retired.model, retired.pose, retired.part_ends, scene, points, object)) {
     frame_.registered.push_back(known);
   }
-  retired_.erase(known);
+  retired_.forget(known);
 }
 
 void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
   std::vector<int> points;
   for (const std::int32_t young : grown_) {
-    if (!born_unknown_.contains(young)) continue;
+    if (!tracked_.at(young).born_unknown) continue;
     const ManagedObject& grown = objects_.at(young);
-    const std::int32_t known = reidentify(color_histogram(grown.model), grown.created_frame);
+    const std::int32_t known = retired_.match(color_histogram(grown.model), grown.created_frame);
     if (known == 0) continue;
     // Too little of it yet to register the remembered model on: it may match again as it grows.
     if (static_cast<float>(grown.model.cloud.size()) <
@@ -605,13 +593,14 @@ void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
     }
     ManagedObject object = grown;  // its model and pose, unless the remembered model registers on its points
     take_id_back(known, scene, points, object);
-    const ColorHistogram first_seen = first_seen_.at(young);
-    const std::uint64_t birth = birth_.at(young);
-    if (confirm_born_at_.contains(young)) confirm_born_at_[known] = confirm_born_at_.at(young);
+    const TrackedObject& was = tracked_.at(young);
+    const ColorHistogram first_seen = was.first_seen;
+    const std::uint64_t birth = was.birth;
+    const std::optional<Eigen::Vector3f> confirm_born_at = was.confirm_born_at;
     forget(young);
     frame_.retired.push_back(young);
     frame_.reidentified.emplace_back(young, known);
-    add_object(std::move(object), points, first_seen, birth);
+    add_object(std::move(object), points, first_seen, birth).confirm_born_at = confirm_born_at;
   }
 }
 
@@ -644,15 +633,8 @@ bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::
 
 void ObjectManager::forget(std::int32_t id) {
   carry_.forget(id);
-  previous_poses_.erase(id);
   objects_.erase(id);
-  updaters_.erase(id);
-  first_seen_.erase(id);
-  born_unknown_.erase(id);
-  birth_.erase(id);
-  split_streak_.erase(id);
-  split_parts_.erase(id);
-  confirm_born_at_.erase(id);
+  tracked_.erase(id);
   const auto with_it = [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; };
   std::erase_if(siblings_, with_it);  // pairs of ids: its siblings' watches and its rigid-part pairs
   std::erase_if(pairs_, with_it);
@@ -685,7 +667,7 @@ void ObjectManager::carry_hidden(const ColoredCloud& scene) {
     }
     ManagedObject& object = objects_.at(carried.id);
     object.pose = carried.pose;
-    object.velocity = pose_difference(previous_poses_.at(carried.id), carried.pose);
+    object.velocity = pose_difference(*tracked_.at(carried.id).pose_before, carried.pose);
     object.carried_by = carried.carrier;
   }
 }
@@ -700,7 +682,7 @@ void ObjectManager::choose_companions() {
     for (const auto& [other_id, other] : objects_) {
       if (other_id == id || other.stale || other.held || !companion_moved(other.velocity, o)) continue;
       const PoseVector increment = companion_increment(object.pose, other.pose, other.velocity);
-      const float reach = increment_reach(increment, model_radius_.at(id));
+      const float reach = increment_reach(increment, tracked_.at(id).model_radius);
       if (reach <= best_reach || !touching(id, other_id, o.contact_distance)) continue;
       best_reach = reach;
       object.companion = other_id;
@@ -718,7 +700,7 @@ void ObjectManager::join_rigid_parts() {
     for (auto b = std::next(a); b != objects_.end(); ++b) {
       const ManagedObject& first = a->second;
       const ManagedObject& second = b->second;
-      if (birth_.at(first.id) != birth_.at(second.id) || first.stale || second.stale) continue;
+      if (tracked_.at(first.id).birth != tracked_.at(second.id).birth || first.stale || second.stale) continue;
       const Eigen::Isometry3f relative = first.pose.isometry().inverse() * second.pose.isometry();
       PairWatch& watch = pairs_[{first.id, second.id}];
       const Eigen::Quaternionf turn(watch.relative.linear().transpose() * relative.linear());
@@ -745,7 +727,7 @@ bool ObjectManager::touching(std::int32_t a, std::int32_t b, float distance) {
   if (const auto it = touch_memo_.find(key); it != touch_memo_.end()) return it->second;
   const ManagedObject& first = objects_.at(std::get<0>(key));
   const ManagedObject& second = objects_.at(std::get<1>(key));
-  const float reach = model_radius_.at(a) + model_radius_.at(b) + distance;
+  const float reach = tracked_.at(a).model_radius + tracked_.at(b).model_radius + distance;
   const bool touch =
       (first.pose.translation - second.pose.translation).norm() <= reach && models_touch(first, second, distance);
   touch_memo_.emplace(key, touch);
@@ -800,7 +782,8 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
   for (const auto& [id, object] : objects_) ids.push_back(id);
   for (const std::int32_t id : ids) {
     ManagedObject& object = objects_.at(id);
-    int& streak = split_streak_[id];
+    TrackedObject& tracked = tracked_.at(id);
+    int& streak = tracked.split_streak;
     std::size_t total = 0;
     for (const auto& [cluster, points] : parts[id]) total += points.size();
     std::vector<const std::vector<int>*> large;
@@ -829,7 +812,7 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
       apart = scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
     }
     streak = apart ? streak + 1 : 0;
-    const std::vector<SplitPart> parts_apart = follow_parts(object, scene, apart ? large : decltype(large){});
+    const std::vector<SplitPart> parts_apart = follow_parts(object, tracked, scene, apart ? large : decltype(large){});
     if (streak < o.split_frames) continue;
     // The object keeps its largest part (first of equals); the others that departed from its motion are new.
     const auto largest = std::max_element(large.begin(), large.end(),
@@ -843,7 +826,8 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
     }
     if (leaving.empty()) continue;  // parts of one body so far: the streak goes on
     streak = 0;
-    split_parts_.erase(id);
+    tracked.split_pose = Pose{};
+    tracked.split_parts.clear();
     std::vector<int> own;
     for (const auto* points : large) {
       if (std::find(leaving.begin(), leaving.end(), points) == leaving.end()) {
@@ -862,17 +846,17 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
   }
 }
 
-std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedObject& object,
-                                                                  const ColoredCloud& scene,
-                                                                  std::span<const std::vector<int>* const> parts) {
+std::vector<SplitPart> ObjectManager::follow_parts(const ManagedObject& object, TrackedObject& tracked,
+                                                   const ColoredCloud& scene,
+                                                   std::span<const std::vector<int>* const> parts) {
   if (parts.empty()) {  // not seen apart: nothing to follow
-    split_parts_.erase(object.id);
+    tracked.split_pose = Pose{};
+    tracked.split_parts.clear();
     return {};
   }
-  SplitParts& last = split_parts_[object.id];
   // Last frame's part each part continues: its centroid, moved with the object or left where it was, is the nearest
   // within split_min_gap (parts lie that far apart); a part continuing none is first seen now.
-  const Eigen::Isometry3f motion = object.pose.isometry() * last.pose.isometry().inverse();
+  const Eigen::Isometry3f motion = object.pose.isometry() * tracked.split_pose.isometry().inverse();
   std::vector<SplitPart> now;
   for (const std::vector<int>* points : parts) {
     SplitPart part;
@@ -881,7 +865,7 @@ std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedO
     part.first_centroid = part.centroid;
     part.first_pose = object.pose;
     float best = options_.join_split.split_min_gap;
-    for (const SplitPart& before : last.parts) {
+    for (const SplitPart& before : tracked.split_parts) {
       const float distance =
           std::min((motion * before.centroid - part.centroid).norm(), (before.centroid - part.centroid).norm());
       if (distance < best) {
@@ -892,28 +876,31 @@ std::vector<ObjectManager::SplitPart> ObjectManager::follow_parts(const ManagedO
     }
     now.push_back(part);
   }
-  last.pose = object.pose;
-  last.parts = now;
+  tracked.split_pose = object.pose;
+  tracked.split_parts = now;
   return now;
 }
 
 void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
   const DiscoveryOptions& o = options_.discovery;
   std::vector<std::int32_t> leaving;  // objects whose first frames ended or that moved from where they were born
-  for (auto it = confirm_born_at_.begin(); it != confirm_born_at_.end();) {
-    const ManagedObject& object = objects_.at(it->first);
+  for (auto& [id, tracked] : tracked_) {
+    if (!tracked.confirm_born_at) continue;
+    const ManagedObject& object = objects_.at(id);
     const bool left = frames_ - object.created_frame > o.confirm_frames ||
-                      (object.pose.translation - it->second).norm() > o.confirm_max_motion;
-    if (left) leaving.push_back(it->first);
-    it = left ? confirm_born_at_.erase(it) : std::next(it);
+                      (object.pose.translation - *tracked.confirm_born_at).norm() > o.confirm_max_motion;
+    if (!left) continue;
+    leaving.push_back(id);
+    tracked.confirm_born_at.reset();
   }
   if (!leaving.empty()) join_unparted_siblings(leaving);
   // Still young objects by birth (the cluster they were found in), each with its segmented points.
   std::map<std::uint64_t, std::map<std::int32_t, std::vector<int>>> groups;
   std::map<std::int32_t, std::vector<int>*> points_of;
-  for (const auto& [id, born_at] : confirm_born_at_) {
+  for (const auto& [id, tracked] : tracked_) {
+    if (!tracked.confirm_born_at) continue;
     const ManagedObject& object = objects_.at(id);
-    if (frames_ - object.created_frame >= 1 && !object.stale) points_of[id] = &groups[birth_.at(id)][id];
+    if (frames_ - object.created_frame >= 1 && !object.stale) points_of[id] = &groups[tracked.birth][id];
   }
   std::erase_if(confirm_votes_, [&](const auto& entry) { return !groups.contains(entry.first); });
   if (groups.empty()) return;

@@ -23,9 +23,11 @@
 #include "mfot/object_discovery.hpp"
 #include "mfot/occlusion.hpp"
 #include "mfot/part_refit.hpp"
+#include "mfot/reidentification.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
 #include "mfot/spatial_hash.hpp"
+#include "mfot/tracked_object.hpp"
 #include "mfot/types.hpp"
 
 namespace mfot {
@@ -184,10 +186,10 @@ struct ObjectManagerFrame {
 //      follows that object's motion instead (CarryMonitor), and with carry.seen_through_share > 0
 //      one gripped while hidden whose place the scene shows empty (OcclusionTest's seen_through_share,
 //      on this frame's scene) is retired in step 4 (re-identified when it shows again); with
-//      companion.contact_distance > 0,
-//      each object's companion is chosen (companion_motion.hpp);
+//      companion.contact_distance > 0, each object's companion is chosen (companion_motion.hpp);
 //   2. segment the scene: nearest model point within tau over all objects (3.22, 3.23);
-//   3. update every non-stale object's model with alpha (3.4);
+//   3. update every non-stale object's model with alpha (3.4); re-fit the grown parts of every object
+//      seen this frame on the first view (PartRefit);
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
 //      which an object is hidden (its model mostly occluded by nearer scene points, or carried
 //      while its tracker held it) do not count; and those gripped away (step 1);
@@ -215,6 +217,8 @@ struct ObjectManagerFrame {
 //      one cluster, discover their points again together: once that disagreed with them in
 //      confirm_votes frames, its parts become the objects, and two of them that it never told apart are
 //      one (DiscoveryOptions).
+// Per live object the manager publishes a ManagedObject (objects()) and keeps one TrackedObject (tracked_object.hpp);
+// retired objects are remembered by RetiredObjects (reidentification.hpp), hidden objects' watches by CarryMonitor.
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -260,22 +264,16 @@ class ObjectManager {
   void resume_object(ManagedObject object);
 
  private:
-  using ColorHistogram = std::array<float, kSmrBins>;
-  struct RetiredObject {
-    std::int64_t retired_frame = 0;
-    std::int32_t version = 0;
-    ColorHistogram histogram{};   // of its last model
-    ColorHistogram first_seen{};  // of its model when created: what reaching in again shows first
-    ObjectModel model;            // its last model and pose, for the registration
-    Pose pose;
-    std::vector<std::uint32_t> part_ends;  // its model's parts
-  };
-  static ColorHistogram color_histogram(const ObjectModel& model);
-  // The Bhattacharyya coefficient of two histograms, in [0, 1].
-  static float similarity_of(const ColorHistogram& a, const ColorHistogram& b);
-  // The remembered id, retired in frame retired_by or before, that the histogram matches best, or 0.
-  std::int32_t reidentify(const ColorHistogram& histogram, std::int64_t retired_by) const;
-  // Step 6: the object carried this frame that the histogram matches best (as reidentify), or 0.
+  // process()'s steps, in order (the header's comment above the class).
+  void take_estimates(const std::map<std::int32_t, ObjectEstimate>& estimates);  // 1 (then carry_hidden, companions)
+  void segment(const ColoredCloud& scene);                                       // 2
+  void update_models(const ColoredCloud& scene);                                 // 3 (then refit_parts)
+  void retire_unsupported(const ColoredCloud& scene);                            // 4
+  void index_clusters(std::span<const std::int32_t> cluster_of_point);           // clusters_ for steps 5 and 6
+  void propagate_and_create(const ColoredCloud& scene);                          // 5 and 6
+  void join_and_split(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);  // 7
+
+  // Step 6: the object carried this frame that the histogram matches best (as RetiredObjects::match), or 0.
   std::int32_t carried_match(const ColorHistogram& histogram) const;
   // Step 6: the carried object id takes points when its model registers on them (keep_frame): its pose, model and
   // labels; false (nothing changed) when it does not register or there is no registration.
@@ -289,9 +287,10 @@ class ObjectManager {
   void create_objects(const ColoredCloud& scene, std::span<const int> free_points);
   void create_object(const ColoredCloud& scene, std::span<const int> points);
   // A created object (create_object, or taking a remembered id back once grown) joins this frame: confidence 1,
-  // created now, its points (scene indices) labelled, its seeded model updater, its first view's histogram, its birth.
-  void add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
-                  std::uint64_t birth);
+  // created now, its points (scene indices) labelled, its record (tracked_) with its seeded model updater, its first
+  // view's histogram and its birth. Returns its record.
+  TrackedObject& add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
+                            std::uint64_t birth);
   // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster.
@@ -303,7 +302,7 @@ class ObjectManager {
   void join_rigid_parts();
   bool models_touch(const ManagedObject& a, const ManagedObject& b, float distance);
   // Step 1's touch test of carrying and companions: models_touch of two objects at this frame's poses,
-  // their bounding spheres (model_radius_) first, since most pairs end there; each pair and distance is
+  // their bounding spheres (TrackedObject::model_radius) first, since most pairs end there; each pair and distance is
   // tested once a frame (touch_memo_).
   bool touching(std::int32_t a, std::int32_t b, float distance);
   void join(std::int32_t kept, std::int32_t joined);
@@ -311,20 +310,9 @@ class ObjectManager {
   // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
   // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
   void confirm_discovery(const ColoredCloud& scene);
-  // Step 7 (split) state per object seen in parts: each part's centroid (camera frame) last frame, and where
-  // and at which object pose it was first seen apart (split_min_departure), with the object's pose last frame.
-  struct SplitPart {
-    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
-    Eigen::Vector3f first_centroid = Eigen::Vector3f::Zero();
-    Pose first_pose;
-  };
-  struct SplitParts {
-    Pose pose;
-    std::vector<SplitPart> parts;
-  };
-  // Step 7 (split): this frame's parts of an object (empty: not apart, and its state goes), each followed from
-  // last frame's.
-  std::vector<SplitPart> follow_parts(const ManagedObject& object, const ColoredCloud& scene,
+  // Step 7 (split): this frame's parts of an object (empty: not apart, and its record's parts go), each followed
+  // from last frame's (TrackedObject::split_parts).
+  std::vector<SplitPart> follow_parts(const ManagedObject& object, TrackedObject& tracked, const ColoredCloud& scene,
                                       std::span<const std::vector<int>* const> parts);
   // How the discovery's parts of a birth's objects meet those objects (this frame's labels): each object takes
   // the part it overlaps most, largest overlaps first, one part per object and object per part.
@@ -352,7 +340,7 @@ class ObjectManager {
   void discover_parts(const ColoredCloud& scene, std::span<const int> points, std::vector<std::vector<int>>& parts);
   // The object's model becomes the points (scene indices) in its frame, thinned evenly.
   void rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points);
-  void forget(std::int32_t id);  // an object that is gone: every per-object table
+  void forget(std::int32_t id);  // an object that is gone: its record, its published state and its pairs' watches
   // Step 1's carrying of hidden (held) objects.
   void carry_hidden(const ColoredCloud& scene);
   // occlusion_ with this frame's scene set (indexed at the first call of a frame).
@@ -381,16 +369,15 @@ class ObjectManager {
   PartRefit refit_;
   std::map<std::int32_t, std::vector<Eigen::Vector3f>> segmented_;  // step 3's points of each object, camera frame
   std::vector<std::uint8_t> hidden_;                                // per segmentation_.object_ids entry
+  // The live objects: what is published of each (objects()) and what the manager keeps for it, under the same ids
+  // (add_object and forget change both).
   std::map<std::int32_t, ManagedObject> objects_;
-  std::map<std::int32_t, std::unique_ptr<ModelUpdater>> updaters_;
-  std::map<std::int32_t, RetiredObject> retired_;
-  std::map<std::int32_t, ColorHistogram> first_seen_;  // per live object
-  std::set<std::int32_t> born_unknown_;                // live objects that took no remembered id at birth
-  std::vector<std::int32_t> grown_;                    // objects whose models grew this frame (step 5)
+  std::map<std::int32_t, TrackedObject> tracked_;
+  RetiredObjects retired_;
+  std::vector<std::int32_t> grown_;  // objects whose models grew this frame (step 5)
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
-  // Step 7 state: siblings share the discovery split they were born from; a pair's relative pose
-  // (b in a's frame) and a's pose when it last changed; frames each object has been in parts.
+  // Step 7 state: a pair of siblings' relative pose (b in a's frame) and a's pose when it last changed.
   struct PairWatch {
     Eigen::Isometry3f relative = Eigen::Isometry3f::Identity();
     Pose start;
@@ -398,13 +385,9 @@ class ObjectManager {
   };
   std::uint64_t next_birth_ = 1;
   std::uint64_t current_birth_ = 0;
-  std::map<std::int32_t, std::uint64_t> birth_;
   std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
-  std::map<std::int32_t, int> split_streak_;
-  std::map<std::int32_t, SplitParts> split_parts_;
-  // Objects confirm_discovery still looks at, with where each was born (camera frame); per birth (the objects
-  // found in one cluster), the frames in which the discovery disagreed with them.
-  std::map<std::int32_t, Eigen::Vector3f> confirm_born_at_;
+  // Per birth (the objects found in one cluster) in the confirmation, the frames in which the discovery disagreed
+  // with them.
   std::map<std::uint64_t, int> confirm_votes_;
   // Per pair of siblings (lower id first) in the confirmation: frames in which most of their points lay in one
   // part, and in different parts.
@@ -420,8 +403,6 @@ class ObjectManager {
   std::optional<ViewBounds> view_;
   // This frame's objects gripped away while hidden, to retire.
   std::vector<std::int32_t> gripped_away_;
-  std::map<std::int32_t, Pose> previous_poses_;  // held objects' poses before this frame's estimates
-  std::map<std::int32_t, float> model_radius_;
   std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> touch_memo_;  // (lower id, higher id, distance)
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
