@@ -20,6 +20,7 @@ struct SentModel {
   std::vector<Eigen::Vector3f> claimed;  // the other objects' points sent with it
   std::int32_t recipient;                // the worker whose channel carries it
   std::int32_t version;
+  std::int32_t held_version;  // the version it may go as an edit of, -1 = whole
 };
 
 struct PublishedFrame {
@@ -34,9 +35,11 @@ struct PublishedFrame {
 class RecordingSink : public MergerSink {
  public:
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) override {
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient,
+                  const HeldModel* held) override {
     models.push_back({object.id, worker_id, worker_instance, frame_seq, object.pose, object.model.cloud.size(),
-                      std::vector<Eigen::Vector3f>(claimed.begin(), claimed.end()), recipient, object.version});
+                      std::vector<Eigen::Vector3f>(claimed.begin(), claimed.end()), recipient, object.version,
+                      held != nullptr ? held->version : -1});
   }
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) override {
     retirements.emplace_back(object_id, frame_seq);

@@ -272,8 +272,12 @@ frame_done_t make_frame_done(int claimed) {
 // Wire offsets of the array counts (8-byte fingerprint first; see the .lcm field order). Every type has
 // envelope_t (56 bytes) right after utime.
 constexpr std::size_t kEnvelope = 56;
-constexpr std::size_t kSceneNumPoints = 8 + 24 + kEnvelope + 8 + 20 + 12 + 16;          // ... voxel_origin 12, plane 16
-constexpr std::size_t kModelNumPoints = 8 + 16 + kEnvelope + 8 + 8 + 4 + 104 + 4 + 52;  // ... + carried_by + companion
+constexpr std::size_t kSceneNumPoints = 8 + 24 + kEnvelope + 8 + 20 + 12 + 16;  // ... voxel_origin 12, plane 16
+// object_model_t: ... carried_by, companion | is_delta 1, base_version, num_base_points 8 | num_base_runs ...
+constexpr std::size_t kModelNumBaseRuns = 8 + 16 + kEnvelope + 8 + 8 + 4 + 104 + 4 + 52 + 1 + 8;
+constexpr std::size_t kModelNumOrderRuns = kModelNumBaseRuns + 4;  // (make_model: no runs)
+constexpr std::size_t kModelNumPoints = kModelNumOrderRuns + 4;
+constexpr std::size_t kModelNumClaimed = kModelNumPoints + 4 + 5 * 15;  // after make_model(5)'s points
 constexpr std::size_t kPosesNumObjects = 8 + 24 + kEnvelope;
 constexpr std::size_t kFrameDoneNumObjects = 8 + 16 + kEnvelope;
 constexpr std::size_t kFrameDoneEntry = 4 + 4 + 8 + 4 + 56 + 8 + 48;  // fixed fields of one frame_done_object_t
@@ -372,9 +376,17 @@ TEST(MalformedMessages, AbsurdAndNegativeArraySizesAreRejected) {
   ASSERT_EQ(read_int32(scene, kSceneNumPoints), 5);
   expect_rejected_and_counted(accept_scene, scene, patched_counts(scene, kSceneNumPoints));
 
-  const Bytes model = encode(make_model(5));
+  object_model_t claiming = make_model(5);
+  claiming.num_claimed = 2;
+  claiming.claimed_x = claiming.claimed_y = claiming.claimed_z = {0.1f, 0.2f};
+  const Bytes model = encode(claiming);
   ASSERT_EQ(read_int32(model, kModelNumPoints), 5);
-  expect_rejected_and_counted(accept_model, model, patched_counts(model, kModelNumPoints));
+  ASSERT_EQ(read_int32(model, kModelNumClaimed), 2);
+  auto model_inputs = patched_counts(model, kModelNumPoints);
+  for (const std::size_t offset : {kModelNumBaseRuns, kModelNumOrderRuns, kModelNumClaimed}) {
+    for (auto& patched : patched_counts(model, offset)) model_inputs.push_back(patched);
+  }
+  expect_rejected_and_counted(accept_model, model, model_inputs);
 
   const Bytes poses = encode(make_poses(2));
   ASSERT_EQ(read_int32(poses, kPosesNumObjects), 2);

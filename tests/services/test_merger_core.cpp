@@ -552,6 +552,13 @@ TEST_F(MergerCoreTest, AModelGoesOutOnlyWhenItChangesAndEveryFrameEndListsTheVer
           EXPECT_EQ(out.models[k].frame_seq, seq);
           EXPECT_EQ(out.models[k].recipient, out.models[k].worker_id);
           EXPECT_EQ(out.models[k].version, merger.manager().objects().at(out.models[k].object_id).version);
+          // It may go as an edit of the version its owner was sent last.
+          std::int32_t sent_before = -1;
+          for (std::size_t j = 0; j < k; ++j) {
+            if (out.models[j].object_id == out.models[k].object_id) sent_before = out.models[j].version;
+          }
+          EXPECT_GE(sent_before, 0);
+          EXPECT_EQ(out.models[k].held_version, sent_before);
         }
       }
     }
@@ -587,6 +594,8 @@ TEST_F(MergerCoreTest, AWorkerBehindGetsItsModelAgain) {
   EXPECT_EQ(out.models[1].object_id, 1);
   EXPECT_EQ(out.models[1].frame_seq, 1);
   EXPECT_EQ(out.models[1].recipient, 0);
+  EXPECT_EQ(out.models[1].held_version, -1);  // the whole model: the worker may lack any version
+  EXPECT_EQ(out.models[0].held_version, -1);  // as on assignment
   EXPECT_EQ(out.resent_scenes.size(), 1u);
 }
 

@@ -14,6 +14,7 @@
 #include "mfot/jcsd_likelihood.hpp"
 #include "mfot/object_model_t.hpp"
 #include "mfot/scene_cloud_t.hpp"
+#include "mfot/service/merger_messages.hpp"
 #include "mfot/service/object_tracker.hpp"
 #include "mfot/service/tracker_worker.hpp"
 
@@ -405,6 +406,103 @@ TEST_F(TrackerWorkerTest, AnEntryWithAVersionNotHeldLeavesTheNextSceneWaitingFor
   EXPECT_EQ(worker.step(), 1);
   EXPECT_EQ(sink.estimates.back().frame_seq, 2);
   EXPECT_EQ(malformed.total(), 0);
+}
+
+// Version 2 of kModel: grown by a part (the merger's growth), one point of the first view dropped.
+ManagedObject version2_object() {
+  ManagedObject object;
+  object.id = 7;
+  object.version = 2;
+  object.pose = kStart;
+  for (std::size_t i = 1; i < kModel.cloud.size(); ++i) {
+    object.model.cloud.push_back(kModel.cloud.positions[i], kModel.cloud.colors[i]);
+  }
+  for (int i = 0; i < 20; ++i) {
+    object.model.cloud.push_back(Eigen::Vector3f(0.001f * static_cast<float>(i), 0.f, 0.06f), Rgb8{1, 2, 3});
+  }
+  return object;
+}
+
+// The merger sends version 2 as an edit of version 1, which this worker holds: it holds the same model as
+// from the whole message, the frame's end releases the next scene, and the estimate is the one the whole
+// model gives.
+TEST_F(TrackerWorkerTest, AnEditOfTheVersionHeldGivesTheWholeModelsEstimateOnceItsFrameEnds) {
+  const ManagedObject object = version2_object();
+  ModelDiffer differ;
+  const HeldModel held{1, kModel.cloud};
+  const object_model_t edit = model_message(object, 4, 444, 1, {}, 0, &held, differ);
+  ASSERT_TRUE(edit.is_delta);
+  ASSERT_EQ(edit.num_points, 20);
+  const object_model_t whole = model_message(object, 4, 444, 1, {}, 0);
+  ASSERT_FALSE(whole.is_delta);
+  std::vector<tracker_estimate_t> estimates;
+  for (const object_model_t* sent : {&edit, &whole}) {
+    RecordingTrackerSink out;
+    TrackerWorker w{config(), {4, 444, "host-a"}, out, malformed, [this] { return now; }};
+    const auto feed = [&w](auto handler, const auto& message) {
+      Bytes bytes = encode(message);
+      const lcm::ReceiveBuffer buffer{bytes.data(), static_cast<std::uint32_t>(bytes.size()), 0};
+      (w.*handler)(&buffer, "TEST");
+    };
+    feed(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+    feed(&TrackerWorker::on_scene, scene_message(1));
+    ASSERT_EQ(w.step(), 1);
+    feed(&TrackerWorker::on_model, *sent);
+    EXPECT_EQ(w.tracker().model_version(), 2);
+    ASSERT_EQ(w.tracker().model().cloud.size(), object.model.cloud.size());
+    for (std::size_t i = 0; i < object.model.cloud.size(); ++i) {
+      ASSERT_EQ(w.tracker().model().cloud.positions[i], object.model.cloud.positions[i]) << i;
+    }
+    feed(&TrackerWorker::on_scene, scene_message(2));
+    if (sent == &edit) {
+      EXPECT_EQ(w.step(), 0);  // an edit leaves the release to its frame's end
+    }
+    feed(&TrackerWorker::on_frame_done, frame_done_of(1, {entry_for(7, 4, 444, 2)}));
+    ASSERT_EQ(w.step(), 1);
+    estimates.push_back(out.estimates.back());
+    EXPECT_EQ(w.model_gaps(), 0);
+  }
+  EXPECT_EQ(estimates[0].frame_seq, 2);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(estimates[0].position[i], estimates[1].position[i]);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(estimates[0].orientation[i], estimates[1].orientation[i]);
+  EXPECT_EQ(malformed.total(), 0);
+}
+
+// An edit of a version this worker does not hold (the one before was lost) is not taken, nor counted as
+// malformed: the worker says at once that it is behind, the scenes wait, and the whole model, sent
+// again, releases them.
+TEST_F(TrackerWorkerTest, AnEditOfAVersionNotHeldIsNotTakenAndAHeartbeatSaysTheWorkerIsBehind) {
+  deliver(&TrackerWorker::on_model, model_for(7, 4, 444, 0));
+  deliver(&TrackerWorker::on_scene, scene_message(1));
+  ASSERT_EQ(worker.step(), 1);
+  const std::size_t heartbeats = sink.heartbeats.size();
+  ManagedObject object = version2_object();
+  object.version = 3;
+  ModelDiffer differ;
+  const HeldModel lost{2, kModel.cloud};  // version 2 never arrived
+  const object_model_t edit = model_message(object, 4, 444, 2, {}, 0, &lost, differ);
+  ASSERT_TRUE(edit.is_delta);
+  deliver(&TrackerWorker::on_model, edit);
+  EXPECT_EQ(worker.tracker().model_version(), 1);
+  EXPECT_EQ(worker.model_gaps(), 1);
+  EXPECT_EQ(malformed.total(), 0);
+  deliver(&TrackerWorker::on_frame_done, frame_done_of(2, {entry_for(7, 4, 444, 3)}));
+  deliver(&TrackerWorker::on_scene, scene_message(3));
+  EXPECT_EQ(worker.step(), 0);  // at the same instant: no heartbeat would be due
+  ASSERT_EQ(sink.heartbeats.size(), heartbeats + 1);
+  EXPECT_EQ(sink.heartbeats.back().last_frame_seq, 1);
+  deliver(&TrackerWorker::on_model, model_message(object, 4, 444, 2, {}, 0));
+  EXPECT_EQ(worker.tracker().model_version(), 3);
+  EXPECT_EQ(worker.step(), 1);
+  EXPECT_EQ(sink.estimates.back().frame_seq, 3);
+  // A forged edit of the version held (runs that do not add up) is malformed, and changes nothing.
+  object_model_t forged = model_message(object, 4, 444, 3, {}, 0, &lost, differ);
+  forged.base_version = 3;
+  forged.version = 4;
+  forged.frame_seq = 3;
+  deliver(&TrackerWorker::on_model, forged);
+  EXPECT_EQ(worker.tracker().model_version(), 3);
+  EXPECT_EQ(malformed.total(), 1);
 }
 
 TEST_F(TrackerWorkerTest, AFrameEndGivingTheObjectToAnotherOrNotListingItTakesItAway) {

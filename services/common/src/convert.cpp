@@ -3,6 +3,8 @@
 #include <cmath>
 #include <span>
 
+#include "mfot/service/model_delta.hpp"
+
 namespace mfot::service {
 
 namespace {
@@ -146,12 +148,32 @@ void pose_to_arrays(const Pose& pose, double position[3], double orientation[4])
 }
 
 std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
-                                              PoseVector& velocity) {
+                                              PoseVector& velocity, const ColoredCloud* base) {
   const auto n = static_cast<std::size_t>(msg.num_points);
   if (msg.num_points < 0) return "negative num_points";
   if (msg.x.size() != n || msg.y.size() != n || msg.z.size() != n || msg.r.size() != n || msg.g.size() != n ||
       msg.b.size() != n) {
     return "array sizes disagree with num_points";
+  }
+  if (msg.num_base_runs < 0 || msg.base_runs.size() != static_cast<std::size_t>(msg.num_base_runs) ||
+      msg.num_order_runs < 0 || msg.order_runs.size() != static_cast<std::size_t>(msg.num_order_runs)) {
+    return "run array sizes disagree with num_base_runs / num_order_runs";
+  }
+  if (!msg.is_delta &&
+      (msg.base_version != 0 || msg.num_base_points != 0 || msg.num_base_runs != 0 || msg.num_order_runs != 0)) {
+    return "a whole model with an edit's base_version, num_base_points or runs";
+  }
+  if (msg.is_delta) {
+    if (base == nullptr) return "a model edit where the whole model is needed";
+    if (msg.base_version < 0 || msg.base_version >= msg.version) {
+      return "edit of version " + std::to_string(msg.base_version) + " into version " + std::to_string(msg.version) +
+             " (base_version must be in [0, version))";
+    }
+    if (msg.num_base_points < 0 || static_cast<std::size_t>(msg.num_base_points) != base->size()) {
+      return "an edit of a base of " + std::to_string(msg.num_base_points) + " points, the base held has " +
+             std::to_string(base->size());
+    }
+    if (msg.num_claimed != 0) return "claimed points in a model edit";
   }
   if (auto error = pose_from_arrays(msg.position, msg.orientation, pose)) return error;
   if (msg.carried_by < 0) return "negative carried_by";
@@ -160,8 +182,10 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
     if (!std::isfinite(msg.velocity[i])) return "non-finite velocity";
     velocity[i] = static_cast<float>(msg.velocity[i]);
   }
-  model.cloud.clear();
-  model.cloud.reserve(n);
+  ColoredCloud new_points;  // an edit's new points
+  ColoredCloud& points = msg.is_delta ? new_points : model.cloud;
+  points.clear();
+  points.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (!finite3(msg.x[i], msg.y[i], msg.z[i])) return "non-finite model point " + std::to_string(i);
     if (std::abs(msg.x[i]) > kMaxModelRadius || std::abs(msg.y[i]) > kMaxModelRadius ||
@@ -169,9 +193,12 @@ std::optional<std::string> model_from_message(const object_model_t& msg, ObjectM
       return "model point " + std::to_string(i) + " is more than " + std::to_string(kMaxModelRadius) +
              " m from the object origin";
     }
-    model.cloud.push_back({msg.x[i], msg.y[i], msg.z[i]},
-                          {static_cast<std::uint8_t>(msg.r[i]), static_cast<std::uint8_t>(msg.g[i]),
-                           static_cast<std::uint8_t>(msg.b[i])});
+    points.push_back({msg.x[i], msg.y[i], msg.z[i]},
+                     {static_cast<std::uint8_t>(msg.r[i]), static_cast<std::uint8_t>(msg.g[i]),
+                      static_cast<std::uint8_t>(msg.b[i])});
+  }
+  if (msg.is_delta) {
+    if (auto error = apply_model_delta(*base, msg.base_runs, msg.order_runs, new_points, model.cloud)) return error;
   }
   model.features = compute_smr(model.cloud.colors);
   return std::nullopt;

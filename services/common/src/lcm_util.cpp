@@ -165,10 +165,20 @@ bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const scene_cloud_t*) {
 }
 
 // hash 8 | utime, frame_seq 16 | object_id, worker_id 8 | worker_instance 8 | version 4 | position,
-// orientation, velocity 104 | carried_by 4 | companion, companion_motion 52 | num_points; per point x, y, z 12 +
-// r, g, b 3.
+// orientation, velocity 104 | carried_by 4 | companion, companion_motion 52 | is_delta 1 | base_version,
+// num_base_points 8 | num_base_runs; per run 4 | num_order_runs; per run 4 | num_points; per point x, y, z 12 +
+// r, g, b 3 | num_claimed; per claimed point x, y, z 12.
 bool declared_sizes_fit(const lcm::ReceiveBuffer* rbuf, const object_model_t*) {
-  return fixed_count_fits(rbuf, object_model_t::getHash(), 204 + kEnvelopeBytes, 15);
+  const WireLayout wire(rbuf, object_model_t::getHash());
+  if (!wire.ours()) return true;
+  std::size_t offset = 213 + kEnvelopeBytes;
+  for (const std::size_t element_bytes : {std::size_t{4}, std::size_t{4}, std::size_t{15}, std::size_t{12}}) {
+    std::int64_t count = 0;
+    if (!wire.int32_at(offset, count)) return true;  // decode finds it truncated
+    if (!wire.fits(offset + 4, count, element_bytes)) return false;
+    offset += 4 + static_cast<std::size_t>(std::max<std::int64_t>(count, 0)) * element_bytes;
+  }
+  return true;
 }
 
 // hash 8 | utime 8 | worker_id 4 | instance 8 | host (int32 length incl. NUL, bytes) | object_id,

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <variant>
@@ -166,13 +167,26 @@ void MergerCore::on_model_report(const lcm::ReceiveBuffer* rbuf, const std::stri
 }
 
 void MergerCore::send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq,
-                            std::int32_t recipient) {
+                            std::int32_t recipient, bool as_edit) {
   claimed_.clear();
   if (claimed_margin_ > 0.f) manager_.claimed_points(object_id, claimed_margin_, claimed_);
   const ManagedObject& object = manager_.objects().at(object_id);
   const std::int64_t instance = workers_.instance_of(worker_id);
-  sink_.send_model(object, worker_id, instance, frame_seq, claimed_, recipient);
-  if (worker_id >= 0 && recipient == worker_id) models_sent_[object_id] = {worker_id, instance, object.version};
+  const auto sent = models_sent_.find(object_id);
+  std::optional<HeldModel> held;
+  if (as_edit && worker_id >= 0 && recipient == worker_id && sent != models_sent_.end() &&
+      sent->second.worker_id == worker_id && sent->second.worker_instance == instance &&
+      sent->second.version < object.version) {
+    held.emplace(HeldModel{sent->second.version, sent->second.cloud});
+  }
+  sink_.send_model(object, worker_id, instance, frame_seq, claimed_, recipient, held ? &*held : nullptr);
+  if (worker_id >= 0 && recipient == worker_id) {
+    ModelSent& now_sent = models_sent_[object_id];
+    now_sent.worker_id = worker_id;
+    now_sent.worker_instance = instance;
+    now_sent.version = object.version;
+    now_sent.cloud = object.model.cloud;
+  }
 }
 
 void MergerCore::send_frame_done(std::int64_t frame_seq) {
@@ -264,8 +278,11 @@ void MergerCore::finish_frame(Clock::time_point now) {
   // worker then gets the frame's end, which stands for the model of this frame where it did not change.
   for (const auto& [object_id, worker_id] : workers_.owners()) {
     const auto sent = models_sent_.find(object_id);
-    const ModelSent now_owned{worker_id, workers_.instance_of(worker_id), manager_.objects().at(object_id).version};
-    if (sent == models_sent_.end() || !(sent->second == now_owned)) send_model(object_id, worker_id, seq, worker_id);
+    if (sent == models_sent_.end() || sent->second.worker_id != worker_id ||
+        sent->second.worker_instance != workers_.instance_of(worker_id) ||
+        sent->second.version != manager_.objects().at(object_id).version) {
+      send_model(object_id, worker_id, seq, worker_id, true);
+    }
   }
   send_frame_done(seq);
   sink_.publish_frame({due.scene, result, manager_.objects(), due_at});

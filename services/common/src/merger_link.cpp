@@ -39,9 +39,10 @@ LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const Merger
 }
 
 void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                               std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed,
-                               std::int32_t recipient) {
-  const object_model_t msg = model_message(object, worker_id, worker_instance, frame_seq, claimed, now_utime());
+                               std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient,
+                               const HeldModel* held) {
+  const object_model_t msg =
+      model_message(object, worker_id, worker_instance, frame_seq, claimed, now_utime(), held, differ_);
   publish_message(lcm_, channel::model_channel(recipient), msg);
 }
 

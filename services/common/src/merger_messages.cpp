@@ -4,8 +4,14 @@
 
 namespace mfot::service {
 
+namespace {
+// Bytes of a point on the wire: x, y, z float32 and r, g, b bytes; of a claimed point x, y, z; of a run int32.
+constexpr std::size_t kPointBytes = 15, kClaimedBytes = 12, kRunBytes = 4;
+}  // namespace
+
 object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime) {
+                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime,
+                             const HeldModel* held, ModelDiffer& differ) {
   object_model_t msg{};
   msg.utime = utime;
   msg.frame_seq = frame_seq;
@@ -18,9 +24,35 @@ object_model_t model_message(const ManagedObject& object, std::int32_t worker_id
   msg.carried_by = object.carried_by;
   msg.companion = object.companion;
   for (int i = 0; i < 6; ++i) msg.companion_motion[i] = object.companion_motion[i];
+  if (held != nullptr && held->version >= 0 && held->version < object.version) {
+    const ColoredCloud& model = object.model.cloud;
+    const ModelDelta& delta = differ.diff(held->cloud, model);
+    const std::size_t edit_bytes =
+        delta.new_points.size() * kPointBytes + (delta.base_runs.size() + delta.order_runs.size()) * kRunBytes;
+    if (edit_bytes < model.size() * kPointBytes + claimed.size() * kClaimedBytes) {
+      ObjectModel new_points;  // the cloud alone goes on the wire
+      new_points.cloud.reserve(delta.new_points.size());
+      for (const std::uint32_t i : delta.new_points) new_points.cloud.push_back(model.positions[i], model.colors[i]);
+      msg.is_delta = true;
+      msg.base_version = held->version;
+      msg.num_base_points = static_cast<std::int32_t>(held->cloud.size());
+      msg.num_base_runs = static_cast<std::int32_t>(delta.base_runs.size());
+      msg.base_runs = delta.base_runs;
+      msg.num_order_runs = static_cast<std::int32_t>(delta.order_runs.size());
+      msg.order_runs = delta.order_runs;
+      model_to_message(new_points, msg);
+      return msg;  // no claimed points: the frame_done_t that follows carries them
+    }
+  }
   model_to_message(object.model, msg);
   claimed_to_message(claimed, msg);
   return msg;
+}
+
+object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime) {
+  ModelDiffer unused;
+  return model_message(object, worker_id, worker_instance, frame_seq, claimed, utime, nullptr, unused);
 }
 
 void frame_done_entry(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,

@@ -59,10 +59,21 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     }
     return;
   }
+  // An edit of a version this worker does not hold (the one it was made of got lost, or went to an earlier
+  // holder): nothing is taken; the scenes wait, and a heartbeat at once shows the merger this worker
+  // behind, so it sends the whole model again.
+  if (msg.is_delta && (!tracker_.has_object() || tracker_.object_id() != msg.object_id ||
+                       tracker_.model_version() != msg.base_version)) {
+    ++model_gaps_;
+    heartbeat_now_ = true;
+    sink_.note("model edit of object " + std::to_string(msg.object_id) + " v" + std::to_string(msg.base_version) +
+               " not held (" + std::to_string(model_gaps_) + " times so far): waiting for the whole model");
+    return;
+  }
   ObjectModel model;
   Pose pose;
   PoseVector velocity;  // the filter learns its own velocity within two frames
-  if (auto error = model_from_message(msg, model, pose, velocity)) {
+  if (auto error = model_from_message(msg, model, pose, velocity, msg.is_delta ? &tracker_.model().cloud : nullptr)) {
     malformed_.record(channel_name, "invalid model", *error);
     return;
   }
@@ -93,6 +104,9 @@ void TrackerWorker::on_model(const lcm::ReceiveBuffer* rbuf, const std::string& 
     return;
   }
   last_pose_ = pose;  // the merger's pose of this model's frame, until the next estimate
+  // An edit is followed by its frame's frame_done_t, whose entry for this version carries the claimed
+  // points and releases the scenes.
+  if (msg.is_delta) return;
   // What the other objects claimed as of this model's frame goes with the scenes it releases.
   tracker_.set_claimed_points(claimed_);
   tracker_.set_companion_motion(companion_motion);
@@ -198,7 +212,7 @@ int TrackerWorker::step() {
   report_fallbacks();
   const auto now = clock_();
   // A skipped scene is said at once, so the merger does not wait for its estimate.
-  if (now >= next_heartbeat_ || scenes_.skipped() != skipped_at_heartbeat_) heartbeat(now);
+  if (now >= next_heartbeat_ || scenes_.skipped() != skipped_at_heartbeat_ || heartbeat_now_) heartbeat(now);
   return tracked;
 }
 
@@ -237,6 +251,7 @@ void TrackerWorker::heartbeat(Clock::time_point now) {
   hb.object_id = tracker_.has_object() ? tracker_.object_id() : -1;
   hb.last_frame_seq = scenes_.last_done();
   skipped_at_heartbeat_ = scenes_.skipped();
+  heartbeat_now_ = false;
   sink_.publish_heartbeat(hb);
   next_heartbeat_ = now + std::chrono::milliseconds(config_.heartbeat_ms);
 }

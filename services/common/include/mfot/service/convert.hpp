@@ -55,9 +55,12 @@ void pose_to_arrays(const Pose& pose, double position[3], double orientation[4])
 inline constexpr float kMaxModelRadius = 1.5f;
 
 // The model of an object_model_t (object frame) with SMR features; error text on invalid data
-// (including points beyond kMaxModelRadius).
+// (including points beyond kMaxModelRadius). An edit (is_delta) is applied to `base`, the model of
+// msg.base_version that the caller holds (apply_model_delta; `model` must not be it): an edit without a
+// base, of a base of another size, or with claimed points is an error, as is a whole model with an
+// edit's fields set.
 std::optional<std::string> model_from_message(const object_model_t& msg, ObjectModel& model, Pose& pose,
-                                              PoseVector& velocity);
+                                              PoseVector& velocity, const ColoredCloud* base = nullptr);
 void model_to_message(const ObjectModel& model, object_model_t& msg);
 // The claimed points of a model message or a frame_done_t entry (num_claimed, claimed_x/y/z: camera
 // frame, metres); an error names what is wrong (sizes disagreeing with num_claimed, a non-finite

@@ -7,12 +7,13 @@
 //   3. while the oldest open frame is due (FrameAssembler::poll; lost scenes and models are sent
 //      again first): ObjectManager::process with the owners' estimates, then retirements are
 //      sent to their owners, idle workers take the new objects, an owner whose object's model
-//      changed (a new version) gets the model, the frame's end goes to every worker
+//      changed (a new version) gets the model (as an edit of the version it was sent last, where
+//      the sink finds that smaller: model_delta.hpp), the frame's end goes to every worker
 //      (frame_done_t: every object's owner and model version, and what its tracker needs beside
 //      the model), then the frame's segmentation and poses (MergerSink::publish_frame).
 // A model goes only to the worker it names (MergerSink::send_model's recipient); a tracker that
-// lacks the version frame_done_t lists waits, falls behind, and its heartbeats make the frame
-// assembler send the model again (FrameAssembler::poll).
+// lacks the version frame_done_t lists (an edit of a version it does not hold is not taken) waits, falls
+// behind, and its heartbeats make the frame assembler send the whole model again (FrameAssembler::poll).
 // What goes out is said to a MergerSink (the LCM main publishes it; tests record it). The clock is
 // passed in, so tests drive time.
 
@@ -29,6 +30,7 @@
 #include "mfot/service/convert.hpp"
 #include "mfot/service/frame_assembler.hpp"
 #include "mfot/service/lcm_util.hpp"
+#include "mfot/service/model_delta.hpp"
 #include "mfot/service/object_resumer.hpp"
 #include "mfot/service/worker_pool.hpp"
 
@@ -68,8 +70,12 @@ class MergerSink {
   // -1: nobody owns it now) and that worker's process `worker_instance` (0 when unknown), with what
   // the other objects claim near it (ObjectManager::claimed_points; empty when not asked for), for
   // worker `recipient` (>= 0: the addressee, or a worker that holds the object without owning it).
+  // `held`: the version of the model this owner was sent last (nullptr: send the whole model); the sink
+  // may send the model as an edit of it, without the claimed points: the frame_done_t that follows this
+  // call within the frame carries them.
   virtual void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) = 0;
+                          std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient,
+                          const HeldModel* held) = 0;
   // The object is gone, as of frame `frame_seq`; for worker `recipient` (>= 0), which holds it.
   virtual void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) = 0;
   // The frame's end, for every worker; the sink stamps its utime.
@@ -114,16 +120,19 @@ class MergerCore {
 
  private:
   void assign_idle_workers(Clock::time_point now);
-  void send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq, std::int32_t recipient);
+  // `as_edit`: the frame's end follows, so the model may go as an edit of the version the owner was sent last.
+  void send_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t frame_seq, std::int32_t recipient,
+                  bool as_edit = false);
   void finish_frame(Clock::time_point due_at);
   void send_frame_done(std::int64_t frame_seq);
 
-  // The model last sent to an object's owner: a new owner, process or version is sent again.
+  // The model last sent to an object's owner: a new owner, process or version is sent again (a new
+  // version as an edit of `cloud`).
   struct ModelSent {
     std::int32_t worker_id;
     std::int64_t worker_instance;
     std::int32_t version;
-    friend bool operator==(const ModelSent&, const ModelSent&) = default;
+    ColoredCloud cloud;  // that version's points, object frame
   };
 
   ObjectManager manager_;

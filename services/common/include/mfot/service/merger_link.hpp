@@ -28,7 +28,8 @@ class LcmMergerLink : public MergerSink {
 
   // Models and retirements go out on the recipient's channel (channel::model_channel).
   void send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
-                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient) override;
+                  std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int32_t recipient,
+                  const HeldModel* held) override;
   void send_retirement(std::int32_t object_id, std::int64_t frame_seq, std::int32_t recipient) override;
   void send_frame_done(frame_done_t& message) override;
   void request_model(std::int32_t object_id, std::int32_t worker_id, std::int64_t worker_instance) override;
@@ -49,6 +50,7 @@ class LcmMergerLink : public MergerSink {
   bool write_labels_;
   std::unique_ptr<RunOutputs> outputs_;
   std::map<std::int64_t, frame_t> frames_;  // by seq, for label images
+  ModelDiffer differ_;                      // finds a new model version's edit
 };
 
 }  // namespace mfot::service

@@ -11,12 +11,19 @@
 #include "mfot/object_model_t.hpp"
 #include "mfot/poses_t.hpp"
 #include "mfot/segmentation_t.hpp"
+#include "mfot/service/model_delta.hpp"
 #include "mfot/service/pose_velocity.hpp"
 
 namespace mfot::service {
 
 // The object's model and pose as of frame `frame_seq`, for `worker_id` (-1: nobody owns it) in
-// its process `worker_instance`, with the other objects' points claimed near it (camera frame).
+// its process `worker_instance`, with the other objects' points claimed near it (camera frame). With `held` (the
+// version the addressee holds, below the object's), an edit of it (is_delta, without the claimed points) when that
+// is fewer bytes on the wire than the whole model with them; `differ` is the scratch that finds the edit.
+object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
+                             std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime,
+                             const HeldModel* held, ModelDiffer& differ);
+// The whole model (held nullptr).
 object_model_t model_message(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
                              std::int64_t frame_seq, std::span<const Eigen::Vector3f> claimed, std::int64_t utime);
 // The object's entry in a frame_done_t: its owner `worker_id` (-1: none) in process `worker_instance`, its

@@ -3,7 +3,9 @@
 // (MFOT_MODEL_<worker_id>, MFOT_FRAME_DONE, MFOT_SCENE) as received bytes, validates them, and
 // tracks the object the merger assigned to it (ObjectTracker). Steps:
 //   1. on_model: a model addressed to this worker id *and* this process (worker_instance) is taken
-//      (a new object starts a new filter; the grid is rebuilt only for a new version); a model
+//      (a new object starts a new filter; the grid is rebuilt only for a new version; an edit is
+//      applied to the version held, and one of a version not held is not taken: a heartbeat at once
+//      shows the merger this worker behind, and it sends the whole model again); a model
 //      addressed to another says the merger finished its frame, and takes away the object it names
 //      if this worker held it (moved to another worker, or retired);
 //      on_frame_done: the merger finished a frame; the object held is dropped when the message
@@ -67,6 +69,8 @@ class TrackerWorker {
   TrackerWorker& operator=(const TrackerWorker&) = delete;
 
   void on_model(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
+  // Model edits of a version this worker did not hold (not taken; it waited for the whole model).
+  std::int64_t model_gaps() const { return model_gaps_; }
   void on_frame_done(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   void on_scene(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // MFOT_STATUS: the merger's status keeps its process the one models are taken from (SenderLock).
@@ -102,6 +106,8 @@ class TrackerWorker {
   std::int64_t skipped_at_heartbeat_ = 0;
   std::int64_t reported_fallbacks_ = 0;
   std::int64_t reported_gaps_ = 0;
+  std::int64_t model_gaps_ = 0;  // model edits of a version not held
+  bool heartbeat_now_ = false;   // say at once that this worker is behind
 };
 
 }  // namespace mfot::service
