@@ -44,7 +44,7 @@ struct MergerCoreOptions {
   ObjectResumerOptions resume;
   // Each model goes out with the other objects' model points inside the object's box grown by
   // this (metres, [0, 1]; the trackers' hypothesis margin plus their claim radius); 0 = none
-  // (tracker.exclude_claimed_radius 0).
+  // (TrackingStepOptions::exclude_claimed_radius 0).
   float claimed_margin = 0.f;
 
   // Throws std::invalid_argument naming the field and its range.
