@@ -2,8 +2,7 @@
 // A companion's motion for a gripped object's filter (a departure from the thesis, docs/experiment-log.md "Where mfot
 // departs from the thesis"): a box that a hand grips and turns turns with the hand, but its own dX
 // (2.13) lags the turn, since the filter's weighted mean and its refinement move only part of the way
-// each frame while the hand covers much of it (`rotate`: the box's estimate trails the hand's by up to
-// 15 degrees through a 32 degree turn, the hand's own estimate within 3). The object's filter predicts
+// each frame while the hand covers much of it. The object's filter predicts
 // a share of its particles by the motion that moving rigidly with a touching object would give it
 // (ParticleFilterOptions::companion_fraction); the likelihood keeps them only where the object did move
 // so. Steps of ObjectManager's companion choice, per object and frame:

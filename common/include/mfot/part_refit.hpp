@@ -2,11 +2,10 @@
 // Keeps a grown model consistent with its first view: each part grown since (a departure; the thesis's
 // model is its first view, updated in place) was placed with its frame's pose estimate, errors included.
 // A box that tumbles shows a new face just as the faces the model holds turn edge-on, so that pose is
-// the least certain of all: on `tumble` a face grown 4-6 degrees off later holds the estimate 4-6 degrees
-// off whenever it fills the view, while the first view still places the object within 1 degree
-// (docs/experiment-log.md "Grown parts re-fitted on the first view"). Where a frame shows the first view and a grown
-// part well, the part's misplacement is measured and undone, as a loop closure re-places a SLAM map's keyframes (here
-// the first view is the fixed keyframe). Steps of refit():
+// the least certain of all: a face grown a few degrees off later holds the estimate as far off whenever
+// it fills the view, while the first view still places the object well (docs/departures.md). Where a frame shows the
+// first view and a grown part well, the part's misplacement is measured and undone, as a loop closure re-places a SLAM
+// map's keyframes (here the first view is the fixed keyframe). Steps of refit():
 //  1. pair each of the object's segmented scene points with its nearest model point within
 //     icp.max_distance at the pose estimate; the point belongs to that point's part;
 //  2. a part takes part when it is seen well: at least min_points scene points, not lying along a
@@ -22,9 +21,8 @@
 //  5. the misplacement keeps only the rotations that the first view's registration holds (with
 //     min_held_rotation > 0): it holds a rotation when turning by it moves its paired model points along
 //     their normals (point to plane, the translation left free). A box whose first view shows well only
-//     by its top holds no turn about the vertical, whatever point-to-point ICP's sampled faces pair with,
-//     and on `spin` that turn handed the lagging estimate to the grown face, 5-6 degrees for 60 frames
-//     (docs/experiment-log.md "Refit keeps the rotations the first view holds"). The rotations are the eigenvectors of
+//     by its top holds no turn about the vertical, whatever point-to-point ICP's sampled faces pair with:
+//     such a turn would hand a lagging estimate on to the grown face. The rotations are the eigenvectors of
 //     the registration's rotational information (point-to-plane normal equations per pair, the translation
 //     marginalised); one is held when its lever (square root of its eigenvalue, metres) is at least
 //     min_held_rotation times the strongest's. The rest of the misplacement's rotation is dropped; the

@@ -85,11 +85,10 @@ struct TrackingStepOptions {
   IcpRefinementOptions icp;
   // The last estimate as a second start (departure from the thesis; docs/experiment-log.md "A partly hidden object kept
   // where it was"). The JCSD score sums the model's density at the scene points, so where part of an object is hidden,
-  // a pose that sinks its visible surface into the model's hidden side scores higher (`apart`: the base box, still, 8
-  // degrees and 14 mm off while an arm hides half of it, at a 2-3 % higher score). In a frame where at least this share
-  // of the model is occluded at the last estimate and no touching object's motion is set (a pushed or gripped object
-  // moves), the last estimate is refined too (icp's settings, on at most last_pose_check_points scored points), and it
-  // replaces the filter's estimate when it explains the view better: its share of scored points unexplained
+  // a pose that sinks its visible surface into the model's hidden side scores higher. In a frame where at least this
+  // share of the model is occluded at the last estimate and no touching object's motion is set (a pushed or gripped
+  // object moves), the last estimate is refined too (icp's settings, on at most last_pose_check_points scored points),
+  // and it replaces the filter's estimate when it explains the view better: its share of scored points unexplained
   // (IcpRefinement::unexplained) plus its share of model points seen through (OcclusionTest::seen_through_share: where
   // the view shows what lies behind), each on at most last_pose_check_points points, is lower than the estimate's. [0,
   // 1]; 0 = off (the thesis; step 5d too); > 0 needs hold_occluded_share > 0 (the occluded share is measured there).
@@ -100,21 +99,18 @@ struct TrackingStepOptions {
   // motion is set (set_companion_motion) and at least last_pose_check_occluded_share (> 0) of the model is occluded,
   // the last estimate moved by that motion is refined too, and it replaces the filter's estimate when its charge (as
   // the last pose check's, on last_pose_check_points) is lower: a box turned by the hand that grips it shows too little
-  // of itself for the refinement to leave where it was (`rotate` seed 3: the filter's estimate, refined, stayed within
-  // 0.3 degrees of the last while the box turned 1.6 degrees a frame), and a still box under a hand hovering over it
-  // keeps its place.
+  // of itself for the refinement to leave where it was, and a still box under a hand hovering over it keeps its place.
   // The filter's turn, kept where the companion turns the same way and the refinement turns it back (step 5e; departure
   // from the thesis; docs/experiment-log.md "A turn the filter and the companion agree on"). On the preprocessor's
   // fixed voxel grid a surface at rest gives the same voxel means frame after frame, so a box that a hand turns quickly
-  // from rest pairs point to point with where it was: ICP turned the filter's estimate back by about as much as the
-  // filter's step turned it, 1-2 degrees a frame, until the box was 11-14 degrees off (`rotate`, the hand's quick
-  // turn). In a frame where a companion's motion is set and turns at least companion_turn_min (a hand that pushes an
-  // object mostly slides it), the filter's step turned the estimate at least as much from the last estimate, about an
-  // axis within acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate (after steps 5b-5d)
-  // kept less than companion_turn_max_kept of that turn along it: the estimate takes the filter's rotation (about the
-  // object's origin) and keeps the refined translation. Two independent measurements agree on the turn, the box's own
-  // score and the hand's motion; the hand's motion alone, taken as the box's, read 4.3 degrees median on `rotate` seed
-  // 86 (0.28 at the defaults). Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
+  // from rest pairs point to point with where it was, and ICP turns the filter's estimate back by about as much as the
+  // filter's step turned it. In a frame where a companion's motion is set and turns at least companion_turn_min (a hand
+  // that pushes an object mostly slides it), the filter's step turned the estimate at least as much from the last
+  // estimate, about an axis within acos(companion_turn_min_cosine) of the companion's turn, and the refined estimate
+  // (after steps 5b-5d) kept less than companion_turn_max_kept of that turn along it: the estimate takes the filter's
+  // rotation (about the object's origin) and keeps the refined translation: two independent measurements agree on the
+  // turn, the box's own score and the hand's motion (the hand's motion alone, taken as the box's, is much worse:
+  // docs/departures.md). Radians [0, pi] (0 = off, the thesis), [-1, 1] and [0, 1].
   float companion_turn_min = 0.f;
   float companion_turn_min_cosine = 0.8f;
   float companion_turn_max_kept = 0.3f;
