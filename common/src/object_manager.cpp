@@ -93,7 +93,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       refit_(options.refit),
       retired_(options.reidentify_similarity),
       carry_(options.carry),
-      wave_hash_(std::max(options.propagation_radius, 1e-3f)),
+      propagation_(options.propagation_radius, options.propagation_min_seed_share),
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
@@ -306,47 +306,8 @@ bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<cons
 }
 
 void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points) {
-  const float radius = options_.propagation_radius;
-  if (radius <= 0.f) return;
-  free_.clear();
-  wave_.clear();
-  for (const int i : cluster_points) (frame_.labels[static_cast<std::size_t>(i)] == 0 ? free_ : wave_).push_back(i);
-  if (free_.empty() || wave_.empty()) return;
-  // Seeded too thinly, the cluster is no part of its labelled points' objects (a box a hand put down, a few stray
-  // labels of the hand leaving it): its unexplained points stay free, to become an object of their own.
-  if (static_cast<float>(wave_.size()) <
-      options_.propagation_min_seed_share * static_cast<float>(cluster_points.size())) {
-    return;
-  }
-  // Waves: each free point within radius of the last wave's points takes its nearest one's
-  // label and joins the next wave, so labels spread along the cluster's surface (hop order),
-  // never across a gap wider than radius. Deterministic: points and ties in index order.
-  std::map<std::int32_t, std::vector<int>> gained;
-  while (!wave_.empty() && !free_.empty()) {
-    wave_points_.clear();
-    for (const int i : wave_) wave_points_.push_back(scene.positions[static_cast<std::size_t>(i)]);
-    wave_hash_.build(wave_points_);
-    next_wave_.clear();
-    std::size_t kept = 0;
-    for (const int i : free_) {
-      const int nearest = wave_hash_.nearest(scene.positions[static_cast<std::size_t>(i)], radius);
-      if (nearest < 0) {
-        free_[kept++] = i;
-        continue;
-      }
-      next_wave_.push_back(i);
-      wave_labels_.push_back(frame_.labels[static_cast<std::size_t>(wave_[static_cast<std::size_t>(nearest)])]);
-    }
-    // Labels are set after the wave's queries so every point of a wave sees the same wave.
-    for (std::size_t k = 0; k < next_wave_.size(); ++k) {
-      frame_.labels[static_cast<std::size_t>(next_wave_[k])] = wave_labels_[k];
-      gained[wave_labels_[k]].push_back(next_wave_[k]);
-    }
-    wave_labels_.clear();
-    free_.resize(kept);
-    std::swap(wave_, next_wave_);
-  }
-  for (auto& [id, points] : gained) {
+  propagation_.propagate(scene.positions, cluster_points, frame_.labels, gained_);
+  for (auto& [id, points] : gained_) {
     ManagedObject& object = objects_.at(id);
     object.support += points.size();
     // A young object grows by a part entering the view, not by a few fringe points.

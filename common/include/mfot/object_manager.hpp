@@ -17,6 +17,7 @@
 #include "mfot/carry_monitor.hpp"
 #include "mfot/companion_motion.hpp"
 #include "mfot/individuation.hpp"
+#include "mfot/label_propagation.hpp"
 #include "mfot/likelihood.hpp"
 #include "mfot/model_registration.hpp"
 #include "mfot/model_updater.hpp"
@@ -293,7 +294,7 @@ class ObjectManager {
                             std::uint64_t birth);
   // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
-  // Step 5 for one cluster.
+  // Step 5 for one cluster: labels propagated (LabelPropagation), young objects grown by the points they gained.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
   // Step 3's re-fit of grown parts (PartRefit) of every object with a new estimate, on its segmented points.
@@ -410,12 +411,10 @@ class ObjectManager {
   std::vector<SegmentationObject> seg_objects_;
   std::vector<int> confirmed_;
   ColoredCloud segment_;
-  SpatialHash wave_hash_{0.015f};
+  LabelPropagation propagation_;                     // step 5
+  std::map<std::int32_t, std::vector<int>> gained_;  // step 5: per object, the points it gained in one cluster
   std::unique_ptr<ModelRegistration> registration_;
   HypothesisData registration_points_;
-  std::vector<int> free_, wave_, next_wave_;
-  std::vector<std::int32_t> wave_labels_;
-  std::vector<Eigen::Vector3f> wave_points_;
 };
 
 }  // namespace mfot
