@@ -105,7 +105,7 @@ TEST(Options, EveryDeclarationIsCompleteAndItsDefaultInRange) {
         break;
     }
   }
-  EXPECT_GT(options, 120);
+  EXPECT_GT(options, 100);  // the loop reached every declaration (116 after the prunes)
   EXPECT_THROW((void)option_spec("tracker.no_such_key"), std::logic_error);
 }
 
