@@ -1,4 +1,4 @@
-// Point-to-point ICP refinement of a pose estimate (steps in the header).
+// Point-to-point ICP refinement of a pose estimate, paired in space or in colour and space (steps in the header).
 
 #include "mfot/icp_refinement.hpp"
 
@@ -35,6 +35,9 @@ void IcpRefinementOptions::validate(const std::string& owner) const {
   if (!(anchor_weight >= 1.f && anchor_weight <= 1000.f)) {
     throw std::invalid_argument(owner + ".anchor_weight must be in [1, 1000], got " + std::to_string(anchor_weight));
   }
+  if (!(color_weight >= 0.f && color_weight <= 10.f)) {
+    throw std::invalid_argument(owner + ".color_weight must be in [0, 10], got " + std::to_string(color_weight));
+  }
 }
 
 namespace {
@@ -57,6 +60,16 @@ constexpr float kBoundSlack = 1e-6f;
 std::size_t sample_stride(std::size_t size, int max_points) {
   const auto points = static_cast<std::size_t>(max_points);
   return std::max<std::size_t>(1, (size + points - 1) / points);
+}
+
+// Half the squared difference of a dense SMR vector (with its squared norm) and a sparse one, in [0, 1] for vectors
+// summing to 1: |a - b|^2 = |a|^2 + |b|^2 - 2 a.b over b's at most three non-zero bins.
+float color_difference(const std::array<float, kSmrBins>& a, float a_squared_norm, const SmrFeature& b) {
+  const int hue_hi = (b.hue_bin + 1) % 6;
+  const float dot = a[b.hue_bin] * b.hue_weight_lo + a[hue_hi] * b.hue_weight_hi + a[b.gray_bin] * b.gray_weight;
+  const float b_squared_norm =
+      b.hue_weight_lo * b.hue_weight_lo + b.hue_weight_hi * b.hue_weight_hi + b.gray_weight * b.gray_weight;
+  return std::max(0.f, 0.5f * (a_squared_norm + b_squared_norm - 2.f * dot));
 }
 
 // The rotation and translation minimising sum w_i |R m_i + t - s_i|^2 (Arun et al. 1987), in double; no
@@ -132,10 +145,59 @@ int IcpRefinement::pair(const Eigen::Vector3f& local, std::span<const Eigen::Vec
   return nearest;
 }
 
-void IcpRefinement::sample(std::span<const Eigen::Vector3f> scene, int max_points) {
+int IcpRefinement::pair_colored(const Eigen::Vector3f& local, const SampleColor& color,
+                                std::span<const Eigen::Vector3f> model, bool use_last, PairBound& bound, float& cost) {
+  const int nearest = pair(local, model, use_last ? bound.nearest : -1, bound);
+  bound.nearest = nearest;
+  if (nearest < 0) return -1;  // no model point within max_distance
+  const float scale = options_.color_weight * options_.max_distance;
+  const float scale2 = scale * scale;
+  const auto n = static_cast<std::size_t>(nearest);
+  cost =
+      (model[n] - local).squaredNorm() + scale2 * color_difference(color.bins, color.squared_norm, model_features_[n]);
+  // Every other model point lies at least `others` away, so costs at least others^2: where the nearest point's cost
+  // is no more, it is the least (most points, those inside a patch of one colour, end here).
+  const float others = bound.others - (local - bound.query).norm();
+  if (others > 0.f && cost <= others * others) return nearest;
+  // Only a point nearer than sqrt(cost) can cost less.
+  candidates_.clear();
+  model_hash_.radius_search(local, std::min(options_.max_distance, std::sqrt(cost)), candidates_);
+  int best = nearest;
+  for (const int j : candidates_) {
+    const auto k = static_cast<std::size_t>(j);
+    const float d2 = (model[k] - local).squaredNorm();
+    if (d2 > cost) continue;
+    const float c = d2 + scale2 * color_difference(color.bins, color.squared_norm, model_features_[k]);
+    if (c < cost || (c == cost && j < best)) {  // ties go to the lower index
+      best = j;
+      cost = c;
+    }
+  }
+  return best;
+}
+
+void IcpRefinement::use_colors(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
+                               std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features) {
+  if ((!scene_features.empty() && scene_features.size() != scene.size()) ||
+      (!model_features.empty() && model_features.size() != model.size())) {
+    throw std::invalid_argument("IcpRefinement: a colour feature span's size differs from its points'");
+  }
+  colored_ = options_.color_weight > 0.f && !scene_features.empty() && !model_features.empty();
+  model_features_ = colored_ ? model_features : std::span<const SmrFeature>{};
+}
+
+void IcpRefinement::sample(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
+                           int max_points) {
   const std::size_t stride = sample_stride(scene.size(), max_points);
   sample_.clear();
-  for (std::size_t i = 0; i < scene.size(); i += stride) sample_.push_back(scene[i]);
+  sample_colors_.clear();
+  for (std::size_t i = 0; i < scene.size(); i += stride) {
+    sample_.push_back(scene[i]);
+    if (!colored_) continue;
+    SampleColor color{scene_features[i].dense(), 0.f};
+    for (const float v : color.bins) color.squared_norm += v * v;
+    sample_colors_.push_back(color);
+  }
 }
 
 bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<const Eigen::Vector3f> model,
@@ -154,8 +216,9 @@ bool IcpRefinement::iterate(std::span<const Eigen::Vector3f> sample, std::span<c
     for (std::size_t i = 0; i < sample.size(); ++i) {
       const Eigen::Vector3f& p = sample[i];
       const Eigen::Vector3f local = to_object * p;
-      const int last = iteration > 0 ? previous_nearest_[i] : -1;
-      const int nearest = pair(local, model, last, bounds_[i]);
+      float cost = 0.f;
+      const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, iteration > 0, bounds_[i], cost)
+                                   : pair(local, model, iteration > 0 ? previous_nearest_[i] : -1, bounds_[i]);
       nearest_.push_back(nearest);
       if (nearest < 0) continue;
       paired_model_.push_back(model[static_cast<std::size_t>(nearest)]);
@@ -181,17 +244,26 @@ void IcpRefinement::use_model(std::span<const Eigen::Vector3f> model) {
 
 float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
                                  const Pose& pose, int max_points) {
+  return unexplained(scene, {}, model, {}, pose, max_points);
+}
+
+float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
+                                 std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
+                                 const Pose& pose, int max_points) {
   if (max_points < 3) throw std::invalid_argument("IcpRefinement::unexplained needs max_points >= 3");
   if (scene.empty() || model.empty()) return 1.f;
   use_model(model);
-  sample(scene, max_points);
+  use_colors(scene, scene_features, model, model_features);
+  sample(scene, scene_features, max_points);
   const Eigen::Isometry3f to_object = pose.isometry().inverse();
   const float cap = options_.max_distance * options_.max_distance;
   double sum = 0.0;
   for (std::size_t i = 0; i < sample_.size(); ++i) {
     float cost = 0.f;
     const Eigen::Vector3f local = to_object * sample_[i];
-    const int nearest = model_hash_.nearest(local, options_.max_distance, &cost);
+    PairBound bound;
+    const int nearest = colored_ ? pair_colored(local, sample_colors_[i], model, false, bound, cost)
+                                 : model_hash_.nearest(local, options_.max_distance, &cost);
     sum += nearest >= 0 ? std::min(cost / cap, 1.f) : 1.f;
   }
   return static_cast<float>(sum / static_cast<double>(sample_.size()));
@@ -199,12 +271,19 @@ float IcpRefinement::unexplained(std::span<const Eigen::Vector3f> scene, std::sp
 
 IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const Eigen::Vector3f> model,
                                 const Pose& start) {
+  return refine(scene, {}, model, {}, start);
+}
+
+IcpResult IcpRefinement::refine(std::span<const Eigen::Vector3f> scene, std::span<const SmrFeature> scene_features,
+                                std::span<const Eigen::Vector3f> model, std::span<const SmrFeature> model_features,
+                                const Pose& start) {
   IcpResult result;
   result.pose = start;
   if (options_.iterations == 0 || scene.empty() || model.empty()) return result;
   use_model(model);
+  use_colors(scene, scene_features, model, model_features);
   Eigen::Isometry3f pose = start.isometry();
-  sample(scene, options_.max_points);
+  sample(scene, scene_features, options_.max_points);
   if (!iterate(sample_, model, pose, result)) return result;
   const Pose refined = Pose::from_isometry(pose);
   if ((refined.translation - start.translation).norm() > options_.max_translation ||

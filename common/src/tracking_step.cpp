@@ -142,7 +142,8 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                 result.isolated ? options_.isolated_motion : filter.options().step_motion(), companion);
   const Pose filtered = result.estimate;
   if (options_.icp.iterations > 0) {
-    const IcpResult icp = icp_.refine(hypothesis_.points, model.cloud.positions, result.estimate);
+    const IcpResult icp =
+        icp_.refine(hypothesis_.points, hypothesis_.features, model.cloud.positions, model.features, result.estimate);
     result.icp_refined = icp.refined;
     if (icp.refined) result.estimate = filter.replace_estimate(icp.pose);
   }
@@ -177,13 +178,14 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
   const std::span<const Eigen::Vector3f> points = model.cloud.positions;
   Pose start = start_pose;
   if (options_.icp.iterations > 0) {
-    const IcpResult refined = last_pose_icp_.refine(hypothesis_.points, points, start_pose);
+    const IcpResult refined =
+        last_pose_icp_.refine(hypothesis_.points, hypothesis_.features, points, model.features, start_pose);
     if (refined.refined) start = refined.pose;
   }
   // Both shares count points (scene points not on the model, model points where the view sees past them).
   const int n = options_.last_pose_check_points;
   const auto unexplained = [&](const Pose& pose) {
-    return last_pose_icp_.unexplained(hypothesis_.points, points, pose, n) +
+    return last_pose_icp_.unexplained(hypothesis_.points, hypothesis_.features, points, model.features, pose, n) +
            occlusion_.seen_through_share(points, pose, n);
   };
   if (unexplained(start) < unexplained(estimate)) return start;

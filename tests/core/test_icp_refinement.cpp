@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "expect_invalid_argument.hpp"
 #include "mfot/icp_refinement.hpp"
 #include "mfot/particle_filter.hpp"
+#include "mfot/smr_feature.hpp"
 #include "synthetic_object.hpp"
 
 namespace mfot {
@@ -265,6 +268,142 @@ TEST(IcpRefinement, TheUnexplainedShareGrowsWithTheMisplacement) {
   EXPECT_THROW(icp.unexplained(scene.positions, model.positions, truth, 2), std::invalid_argument);
 }
 
+// A can: the side of a cylinder (radius 4 cm, height 12 cm) in eight red and blue stripes around its axis (z),
+// object frame. The model's points lie on a grid about 5 mm apart; the scene's are drawn at random (seeded), as a
+// sensor samples a surface elsewhere than the model's voxels.
+constexpr float kCanRadius = 0.04f, kCanHeight = 0.12f;
+
+Rgb8 stripe_colour(float angle) {
+  const float turns = angle / (2.f * std::numbers::pi_v<float>);
+  const int stripe = static_cast<int>(std::floor((turns - std::floor(turns)) * 8.f));
+  return stripe % 2 == 0 ? test::kRed : test::kBlue;
+}
+
+Eigen::Vector3f on_can(float angle, float z) {
+  return Eigen::Vector3f(kCanRadius * std::cos(angle), kCanRadius * std::sin(angle), z);
+}
+
+ColoredCloud striped_can_model() {
+  constexpr float kSpacing = 0.005f;
+  const int around = static_cast<int>(std::round(2.f * std::numbers::pi_v<float> * kCanRadius / kSpacing));
+  ColoredCloud can;
+  for (int a = 0; a < around; ++a) {
+    const float angle = 2.f * std::numbers::pi_v<float> * static_cast<float>(a) / static_cast<float>(around);
+    for (float z = -0.5f * kCanHeight; z <= 0.5f * kCanHeight; z += kSpacing) {
+      can.push_back(on_can(angle, z), stripe_colour(angle));
+    }
+  }
+  return can;
+}
+
+// The can seen from the camera 0.9 m away at truth: 800 points of the near half of its side.
+ColoredCloud seen_can(const Pose& truth) {
+  ColoredCloud scene;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> turn(0.f, 2.f * std::numbers::pi_v<float>);
+  std::uniform_real_distribution<float> height(-0.5f * kCanHeight, 0.5f * kCanHeight);
+  while (scene.size() < 800) {
+    const float angle = turn(rng);
+    const Eigen::Vector3f local = on_can(angle, height(rng));
+    const Eigen::Vector3f p = truth.isometry() * local;
+    const Eigen::Vector3f normal = truth.rotation * Eigen::Vector3f(local.x(), local.y(), 0.f);
+    if (normal.dot(p) < 0.f) scene.push_back(p, stripe_colour(angle));  // facing the camera at the origin
+  }
+  return scene;
+}
+
+// Its axis tilted 60 degrees towards the camera.
+Pose can_truth() {
+  return test::make_pose(Eigen::Vector3f(0.02f, 0.f, 0.9f), Eigen::Vector3f::UnitX(), test::radians(-60.f));
+}
+
+TEST(IcpRefinement, ColourPairsSeeATurnAboutTheSymmetryAxisThatGeometryCannot) {
+  const ColoredCloud model = striped_can_model();
+  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
+  const Pose truth = can_truth();
+  const ColoredCloud scene = seen_can(truth);
+  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+  // The filter's estimate lags the can's turn about its own axis by 8 degrees (5.6 mm of arc).
+  Pose start = truth;
+  start.rotation =
+      (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(8.f), Eigen::Vector3f::UnitZ())))
+          .normalized();
+  IcpRefinementOptions options = iterations(10);
+  IcpRefinement geometric(options);
+  const IcpResult shape_only = geometric.refine(scene.positions, model.positions, start);
+  options.color_weight = 1.f;
+  IcpRefinement colored(options);
+  const IcpResult with_colour = colored.refine(scene.positions, scene_features, model.positions, model_features, start);
+  const float shape_error = test::degrees(test::rotation_error(shape_only.pose, truth));
+  const float colour_error = test::degrees(test::rotation_error(with_colour.pose, truth));
+  std::printf("turned 8 deg about the axis: geometry %.2f deg, colour and geometry %.2f deg (%.2f mm)\n", shape_error,
+              colour_error, 1e3f * test::translation_error(with_colour.pose, truth));
+  // The shape cannot show the turn: the nearest points leave it.
+  EXPECT_GT(shape_error, 6.f);
+  ASSERT_TRUE(with_colour.refined);
+  // Only the points near a stripe's edge pull (a point inside a stripe pairs with its nearest point of that colour),
+  // so each iteration takes a share of the lag: 1.8 degrees left after 10.
+  EXPECT_LT(colour_error, 2.5f);
+  EXPECT_LT(test::translation_error(with_colour.pose, truth), 0.0015f);
+  // Without the scene's features (or with color_weight 0) it is the geometric refinement, pose for pose.
+  const IcpResult no_features = colored.refine(scene.positions, {}, model.positions, model_features, start);
+  EXPECT_EQ(no_features.pose.rotation.coeffs(), shape_only.pose.rotation.coeffs());
+  // The colour charge tells the turned pose from the truth; the shape's does not.
+  const auto charge = [&](IcpRefinement& icp, std::span<const SmrFeature> features, const Pose& pose) {
+    return icp.unexplained(scene.positions, features, model.positions, model_features, pose, 2000);
+  };
+  std::printf("charge turned / true: colour %.3f / %.3f, geometry %.3f / %.3f\n",
+              charge(colored, scene_features, start), charge(colored, scene_features, truth),
+              charge(geometric, {}, start), charge(geometric, {}, truth));
+  EXPECT_GT(charge(colored, scene_features, start), 1.5f * charge(colored, scene_features, truth));
+  EXPECT_NEAR(charge(geometric, {}, start), charge(geometric, {}, truth), 0.02f);
+  // A feature span of another size than its points is refused.
+  EXPECT_THROW(colored.refine(scene.positions, model_features, model.positions, model_features, start),
+               std::invalid_argument);
+}
+
+// The pairing looks only at the model points that can cost less than the nearest one: its least costs are those of
+// a search over every model point, at every lag of the turn (exact, not approximate).
+TEST(IcpRefinement, ColourPairingIsTheLeastCostOverEveryModelPoint) {
+  const ColoredCloud model = striped_can_model();
+  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
+  const Pose truth = can_truth();
+  const ColoredCloud scene = seen_can(truth);
+  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+  IcpRefinementOptions options = iterations(10);
+  options.color_weight = 1.f;
+  IcpRefinement colored(options);
+  const float r = options.max_distance;
+  for (const float lag : {0.f, 2.f, 5.f, 8.f, 12.f}) {
+    Pose pose = truth;
+    pose.rotation =
+        (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(lag), Eigen::Vector3f::UnitZ())))
+            .normalized();
+    const Eigen::Isometry3f to_object = pose.isometry().inverse();
+    double sum = 0.0;
+    for (std::size_t i = 0; i < scene.size(); ++i) {
+      const Eigen::Vector3f local = to_object * scene.positions[i];
+      const auto h = scene_features[i].dense();
+      float least = -1.f;
+      for (std::size_t j = 0; j < model.size(); ++j) {
+        const float d2 = (model.positions[j] - local).squaredNorm();
+        if (d2 > r * r) continue;
+        const auto m = model_features[j].dense();
+        float dc = 0.f;
+        for (int k = 0; k < kSmrBins; ++k) dc += 0.5f * (h[k] - m[k]) * (h[k] - m[k]);
+        const float cost = d2 + r * r * dc;
+        if (least < 0.f || cost < least) least = cost;
+      }
+      sum += least < 0.f ? 1.0 : std::min(least / (r * r), 1.f);
+    }
+    const auto every_point = static_cast<int>(scene.size());
+    EXPECT_NEAR(
+        colored.unexplained(scene.positions, scene_features, model.positions, model_features, pose, every_point),
+        sum / static_cast<double>(scene.size()), 1e-5)
+        << "lag " << lag << " deg";
+  }
+}
+
 TEST(IcpRefinement, InvalidOptionsThrow) {
   const auto bad = [](auto mutate) {
     IcpRefinementOptions o;
@@ -280,6 +419,8 @@ TEST(IcpRefinement, InvalidOptionsThrow) {
   bad([](IcpRefinementOptions& o) { o.max_points = 2; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 0.9f; });
   bad([](IcpRefinementOptions& o) { o.anchor_weight = 1001.f; });
+  bad([](IcpRefinementOptions& o) { o.color_weight = -0.1f; });
+  bad([](IcpRefinementOptions& o) { o.color_weight = 10.5f; });
   IcpRefinementOptions too_far;
   too_far.max_distance = 0.5f;
   test::expect_invalid_argument([&] { too_far.validate("tracker"); }, "tracker.max_distance");

@@ -156,7 +156,8 @@ struct TrackingStepResult {
 //     never scored by this object;
 //  5. step the filter with the likelihood on what is left (with isolated_motion when exclude_claimed_radius > 0
 //     and no other object's model is near; with the companion's motion when one was set);
-//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points;
+//  5b. when icp.iterations > 0: refine the estimate on the model's surface with the same points (in colour and
+//      space with icp.color_weight > 0: the points' SMR features against the model's, here and in 5c-5d);
 //  5c. when last_pose_check_occluded_share > 0, at least that share is occluded and no companion's motion is
 //      set: refine the last estimate too, and keep it instead when it explains the view better;
 //  5d. when last_pose_check_occluded_share > 0, a companion's motion is set and at least that share is

@@ -34,6 +34,7 @@ float read_cell_size(ConfigSection& tracker) { return read_option<float>(tracker
 // option struct's default.
 constexpr float kIcpMinPairedShare = 0.8f;           // fewer scored points paired: the estimate stays
 constexpr float kIcpAnchorWeight = 4.f;              // the model's first-view points' weight in ICP's fit
+constexpr float kIcpColorWeight = 1.f;               // ICP pairs in colour and space (coloured ICP)
 constexpr float kConfidenceSeenThroughWeight = 2.f;  // confidence x (1 - this x the share seen through)
 constexpr float kHoldMinScoredShare = 0.2f;          // fewer scored points than this share of the model: hold
 constexpr float kReidentifyGrownMinShare = 0.5f;     // a grown object is matched once it holds this of the model
@@ -130,6 +131,7 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.icp.min_paired_share = kIcpMinPairedShare;
   c.step.icp.max_points = kIcpMaxPoints;
   c.step.icp.anchor_weight = kIcpAnchorWeight;
+  c.step.icp.color_weight = kIcpColorWeight;
   c.step.last_pose_check_occluded_share = kLastPoseCheckOccludedShare;
   c.step.companion_turn_min = kCompanionTurnMinDeg * kRadiansPerDegree;
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
