@@ -3,9 +3,10 @@
 //  1. upload_grid: the model's J (8 floats per corner) goes to the device through pinned memory.
 //     The kernel reads it as 8 planes, one per SMR bin, whose elements hold a corner's value and
 //     its x neighbour's (8 bytes), with padded strides (GridLayout): one point's three non-zero
-//     SMR bins (3.19) at the 8 corners of its cell are 12 loads. Each block expands the compact
-//     grid into shared memory when the planes fit there; larger grids are expanded once into
-//     global memory at upload and read through the read-only cache.
+//     SMR bins (3.19) at the 8 corners of its cell are 12 loads. The planes are expanded once per
+//     upload, into global memory; each block copies them as they are into shared memory when they
+//     fit there (16-byte asynchronous copies, no per-block index arithmetic), larger grids are
+//     read through the read-only cache.
 //  2. evaluate: points (32 B) and particles (48 B, the inverse pose already in grid units) go to
 //     the device in one asynchronous copy from pinned memory, on this object's stream.
 //  3. the scoring kernel: one resident block of 512 threads per multiprocessor takes work items
@@ -20,6 +21,7 @@
 //     order. No floating-point atomics: scores are bit-identical from call to call. Splits are
 //     chosen per call so that the items spread evenly over the multiprocessors.
 
+#include <cuda_pipeline.h>
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -153,7 +155,7 @@ class PinnedBuffer {
 // (zeros in the padding). In shared memory the reduction buffer follows the planes.
 struct GridLayout {
   const float4* raw;           // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
-  const PlaneElement* planes;  // the planes in global memory (global-memory kernel only)
+  const PlaneElement* planes;  // the planes in global memory, expanded at upload_grid
   int dim_x, dim_y;
   int stride_y, stride_z;          // padded strides in corners
   int plane;                       // elements per plane: stride_z * dims[2]
@@ -191,6 +193,12 @@ GridLayout make_layout(const float4* raw, const PlaneElement* planes, const std:
           static_cast<unsigned>(dims[2] - 2)};
 }
 
+// 16-byte words holding the kPlanes planes of `plane` elements (the last one zero-padded).
+__host__ __device__ constexpr int plane_words(int plane) {
+  return static_cast<int>((kPlanes * static_cast<long long>(plane) * sizeof(PlaneElement) + sizeof(float4) - 1) /
+                          sizeof(float4));
+}
+
 // Writes padded corner c of the planes from the compact grid.
 __device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, PlaneElement* planes) {
   const int z = c / layout.stride_z;
@@ -217,7 +225,7 @@ __device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, P
   }
 }
 
-// One thread per padded corner: the planes in global memory, for grids too large for shared memory.
+// One thread per padded corner: the planes in global memory (once per upload_grid).
 __global__ void expand_planes_kernel(GridLayout layout, PlaneElement* planes) {
   const int c = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
   if (c < layout.plane) expand_corner(layout, c, planes);
@@ -319,10 +327,17 @@ __global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout l
   const char* planes = reinterpret_cast<const char*>(layout.planes);
   float* reduce = reinterpret_cast<float*>(shared_memory);
   if constexpr (kShared) {
-    auto* shared_planes = reinterpret_cast<PlaneElement*>(shared_memory);
-    for (int c = thread; c < layout.plane; c += kThreadsPerBlock) expand_corner(layout, c, shared_planes);
-    planes = reinterpret_cast<const char*>(shared_planes);
-    reduce = reinterpret_cast<float*>(shared_planes + kPlanes * layout.plane);
+    // The planes, expanded once at upload, are copied as they are (16-byte asynchronous copies
+    // that bypass the registers); the reduction buffer follows them.
+    const int words = plane_words(layout.plane);
+    const auto* source = reinterpret_cast<const float4*>(layout.planes);
+    for (int w = thread; w < words; w += kThreadsPerBlock) {
+      __pipeline_memcpy_async(shared_memory + w, source + w, sizeof(float4));
+    }
+    __pipeline_commit();
+    __pipeline_wait_prior(0);
+    planes = reinterpret_cast<const char*>(shared_memory);
+    reduce = reinterpret_cast<float*>(shared_memory + words);
     __syncthreads();
   }
 
@@ -345,13 +360,13 @@ __global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout l
 
     // 3.20 in a fixed order: the two halves of each warp, the warps, then (several splits) the
     // splits.
-    sum += __shfl_xor_sync(0xffffffffu, sum, kTile);
+    if constexpr (kTile < kWarpSize) sum += __shfl_xor_sync(0xffffffffu, sum, kTile);
     if (lane < kTile) reduce[warp * kTile + lane] = sum;
     __syncthreads();
     if (warp == 0) {
       float total = 0.f;
       for (int w = lane / kTile; w < kWarpsPerBlock; w += kWarpSize / kTile) total += reduce[w * kTile + member];
-      total += __shfl_xor_sync(0xffffffffu, total, kTile);
+      if constexpr (kTile < kWarpSize) total += __shfl_xor_sync(0xffffffffu, total, kTile);
       const int particle = tile * kTile + member;
       if (frame.splits == 1) {
         if (lane < kTile && particle < frame.num_particles) frame.scores[particle] = total;
@@ -522,7 +537,21 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   s.stride_y = stride_y;
   s.stride_z = stride_z;
   s.plane = static_cast<int>(plane);
-  const std::size_t shared_bytes = plane * kPlanes * sizeof(PlaneElement) + kReduceBytes;
+  // The planes are expanded once here, into global memory; the kernel copies them into shared
+  // memory when they fit there and reads them through the read-only cache otherwise.
+  const std::size_t words = static_cast<std::size_t>(plane_words(s.plane));
+  s.planes.reserve(words * sizeof(float4), s.stream, "cudaMalloc (grid planes)");
+  const GridLayout layout = make_layout(s.raw_grid.as<float4>(), nullptr, dims, stride_y, stride_z, s.plane);
+  const int threads = 256;
+  expand_planes_kernel<<<(s.plane + threads - 1) / threads, threads, 0, s.stream>>>(layout,
+                                                                                    s.planes.as<PlaneElement>());
+  check(cudaGetLastError(), "expand_planes_kernel launch");
+  const std::size_t tail = words * sizeof(float4) - kPlanes * plane * sizeof(PlaneElement);
+  if (tail != 0) {
+    check(cudaMemsetAsync(s.planes.as<unsigned char>() + kPlanes * plane * sizeof(PlaneElement), 0, tail, s.stream),
+          "cudaMemsetAsync (grid planes)");
+  }
+  const std::size_t shared_bytes = words * sizeof(float4) + kReduceBytes;
   int blocks_per_sm = 0;
   if (shared_bytes <= static_cast<std::size_t>(s.max_shared_bytes)) {
     check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<true>, kThreadsPerBlock,
@@ -531,12 +560,6 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   }
   s.grid_in_shared = blocks_per_sm > 0;
   if (!s.grid_in_shared) {
-    s.planes.reserve(plane * kPlanes * sizeof(PlaneElement), s.stream, "cudaMalloc (grid planes)");
-    const GridLayout layout = make_layout(s.raw_grid.as<float4>(), nullptr, dims, stride_y, stride_z, s.plane);
-    const int threads = 256;
-    expand_planes_kernel<<<(s.plane + threads - 1) / threads, threads, 0, s.stream>>>(layout,
-                                                                                      s.planes.as<PlaneElement>());
-    check(cudaGetLastError(), "expand_planes_kernel launch");
     check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&blocks_per_sm, score_kernel<false>, kThreadsPerBlock,
                                                         kReduceBytes),
           "cudaOccupancyMaxActiveBlocksPerMultiprocessor");
@@ -584,8 +607,7 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   const int split_points = (num_points + splits - 1) / splits;
   const int blocks = std::min(tiles * splits, s.resident_blocks);
   const std::size_t shared_bytes =
-      s.grid_in_shared ? static_cast<std::size_t>(s.plane) * kPlanes * sizeof(PlaneElement) + kReduceBytes
-                       : kReduceBytes;
+      s.grid_in_shared ? static_cast<std::size_t>(plane_words(s.plane)) * sizeof(float4) + kReduceBytes : kReduceBytes;
 
   const std::size_t frame_bytes = points * sizeof(PointRecord) + particles * sizeof(ParticleRecord);
   s.frame.reserve(frame_bytes + kFramePadBytes, s.stream, "cudaMalloc (frame)");
