@@ -53,6 +53,11 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.reidentify_grown_min_share must be in [0, 1], got " +
                                 std::to_string(reidentify_grown_min_share));
   }
+  if (!(reidentify_unseen_radius_ratio == 0.f ||
+        (reidentify_unseen_radius_ratio >= 1.f && reidentify_unseen_radius_ratio <= 10.f))) {
+    throw std::invalid_argument("ObjectManagerOptions.reidentify_unseen_radius_ratio must be 0 or in [1, 10], got " +
+                                std::to_string(reidentify_unseen_radius_ratio));
+  }
   if (!(propagation_min_seed_share >= 0.f && propagation_min_seed_share <= 1.f)) {
     throw std::invalid_argument("ObjectManagerOptions.propagation_min_seed_share must be in [0, 1], got " +
                                 std::to_string(propagation_min_seed_share));
@@ -456,11 +461,12 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   object.model.features = compute_smr(object.model.cloud.colors, options_.smr);
   object.part_ends.assign(1, static_cast<std::uint32_t>(object.model.cloud.size()));
   const ColorHistogram histogram = color_histogram(object.model);
-  const std::int32_t known = frames_ > 0 ? retired_.match(histogram, frames_) : 0;
+  std::int32_t known = frames_ > 0 ? retired_.match(histogram, frames_) : 0;
   if (known == 0 && options_.carry.frames > 0) {
     const std::int32_t carried = carried_match(histogram);
     if (carried != 0 && take_points_carried(carried, scene, free_points)) return;
   }
+  if (known == 0) known = retire_unseen_match(histogram, object.model);
   if (known != 0) {
     take_id_back(known, scene, free_points, object);
   } else {
@@ -536,6 +542,25 @@ void ObjectManager::take_id_back(std::int32_t known, const ColoredCloud& scene, 
   retired_.forget(known);
 }
 
+std::int32_t ObjectManager::retire_unseen_match(const ColorHistogram& histogram, const ObjectModel& model) {
+  if (options_.reidentify_unseen_radius_ratio <= 0.f || options_.reidentify_frames <= 0) return 0;
+  unseen_.clear();
+  for (const auto& [id, object] : objects_) {
+    if (object.created_frame == frames_ || (!object.held && object.support >= options_.support.min_points)) continue;
+    unseen_.push_back({id, color_histogram(object.model), tracked_.at(id).first_seen, model_radius(object.model)});
+  }
+  const std::int32_t id =
+      retired_.match_unseen(unseen_, histogram, model_radius(model), options_.reidentify_unseen_radius_ratio);
+  if (id == 0) return 0;
+  const ManagedObject& object = objects_.at(id);
+  retired_.remember(id, {frames_, object.version, color_histogram(object.model), tracked_.at(id).first_seen,
+                         object.model, object.pose, object.part_ends});
+  forget(id);
+  frame_.retired.push_back(id);
+  std::replace(frame_.labels.begin(), frame_.labels.end(), id, 0);  // its points where it was held are not its own
+  return id;
+}
+
 void ObjectManager::reidentify_grown_objects(const ColoredCloud& scene) {
   std::vector<int> points;
   for (const std::int32_t young : grown_) {
@@ -594,6 +619,7 @@ bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::
 
 void ObjectManager::forget(std::int32_t id) {
   carry_.forget(id);
+  support_.forget(id);  // an id taken back at once starts its count afresh
   objects_.erase(id);
   tracked_.erase(id);
   const auto with_it = [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; };

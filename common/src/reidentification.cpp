@@ -28,6 +28,26 @@ float color_similarity(const ColorHistogram& a, const ColorHistogram& b) {
   return coefficient;
 }
 
+float model_radius(const ObjectModel& model) {
+  if (model.cloud.empty()) return 0.f;
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  for (const Eigen::Vector3f& p : model.cloud.positions) centroid += p;
+  centroid /= static_cast<float>(model.cloud.size());
+  float radius = 0.f;
+  for (const Eigen::Vector3f& p : model.cloud.positions) radius = std::max(radius, (p - centroid).norm());
+  return radius;
+}
+
+namespace {
+
+// The better of the two views' similarities: an object grown while entering (a hand and its arm) may come back
+// showing only what it showed first.
+float best_view_similarity(const ColorHistogram& histogram, const ColorHistogram& last, const ColorHistogram& first) {
+  return std::max(color_similarity(histogram, last), color_similarity(histogram, first));
+}
+
+}  // namespace
+
 void RetiredObjects::expire(std::int64_t frame, int frames) {
   std::erase_if(retired_, [&](const auto& entry) { return frame - entry.second.retired_frame >= frames; });
 }
@@ -43,6 +63,22 @@ std::int32_t RetiredObjects::match(const ColorHistogram& histogram, std::int64_t
         std::max(color_similarity(histogram, retired.histogram), color_similarity(histogram, retired.first_seen));
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
+      best_similarity = similarity;
+    }
+  }
+  return best;
+}
+
+std::int32_t RetiredObjects::match_unseen(std::span<const UnseenObject> unseen, const ColorHistogram& histogram,
+                                          float radius, float max_radius_ratio) const {
+  std::int32_t best = 0;
+  float best_similarity = similarity_;
+  for (const UnseenObject& object : unseen) {
+    if (radius > max_radius_ratio * object.radius) continue;
+    const float similarity = best_view_similarity(histogram, object.histogram, object.first_seen);
+    if (similarity > best_similarity || (best == 0 && similarity >= best_similarity) ||
+        (similarity == best_similarity && object.id < best)) {
+      best = object.id;
       best_similarity = similarity;
     }
   }

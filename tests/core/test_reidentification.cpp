@@ -62,6 +62,29 @@ TEST(RetiredObjects, TheBestMatchWinsAndTiesKeepTheLowestId) {
   EXPECT_EQ(memory.size(), 2u);
 }
 
+TEST(ModelRadius, IsTheLargestDistanceFromTheCentroid) {
+  EXPECT_NEAR(model_radius(painted(kRed, 21)), 0.1f, 1e-5f);  // 0 .. 0.2 m on a line about 0.1
+  EXPECT_EQ(model_radius(ObjectModel{}), 0.f);
+}
+
+TEST(RetiredObjects, AnUnseenObjectMatchesByColourAndANewcomerNoMoreThanTheRatioLarger) {
+  const RetiredObjects memory(0.9f);
+  const auto unseen = [](std::int32_t id, const ObjectModel& last, const ObjectModel& first, float radius) {
+    return UnseenObject{id, color_histogram(last), color_histogram(first), radius};
+  };
+  const std::vector<UnseenObject> live{unseen(2, painted(kBlue), painted(kRed), 0.05f),  // grown blue, first seen red
+                                       unseen(5, painted(kRed), painted(kRed), 0.05f),
+                                       unseen(8, painted({40, 200, 50}), painted({40, 200, 50}), 0.2f)};
+  const ColorHistogram red = color_histogram(painted(kRed));
+  EXPECT_EQ(memory.match_unseen(live, red, 0.08f, 2.f), 2);  // ties (red first view, red): the lowest id
+  EXPECT_EQ(memory.match_unseen(live, red, 0.12f, 2.f), 0);  // more than twice as large: neither
+  EXPECT_EQ(memory.match_unseen(std::span(live).subspan(1), red, 0.1f, 2.f), 5);
+  EXPECT_EQ(memory.match_unseen(live, color_histogram(painted(kBlue)), 0.01f, 2.f), 2);
+  EXPECT_EQ(memory.match_unseen(live, color_histogram(painted({40, 200, 50})), 0.3f, 2.f), 8);
+  EXPECT_EQ(memory.match_unseen(live, color_histogram(painted({200, 200, 200})), 0.01f, 2.f), 0);  // grey: none
+  EXPECT_EQ(memory.match_unseen({}, red, 0.01f, 2.f), 0);
+}
+
 TEST(RetiredObjects, ForgetsThoseRetiredTheGivenFramesAgo) {
   RetiredObjects memory(0.9f);
   memory.remember(1, retired_at(0, painted(kRed), painted(kRed)));

@@ -137,6 +137,10 @@ class SupportMonitor {
 
   // Consecutive frames without support of id so far (0 when unknown).
   int frames_without_support(std::int32_t id) const;
+  // id's count goes (0 from now on, until it lacks support again).
+  void forget(std::int32_t id) {
+    std::erase_if(misses_, [id](const auto& entry) { return entry.first == id; });
+  }
 
  private:
   SupportLossOptions options_;

@@ -108,6 +108,12 @@ struct ObjectManagerOptions {
   // it as well), and the merged model and the pose carry that error until the object is seen whole. [0, 1]; 0 =
   // as soon as its colours match.
   float reidentify_grown_min_share = 0.f;
+  // A live object not seen in the frame (its tracker holds it, or it lacks support but is not retired yet) is a new
+  // object's candidate as a retired one is (RetiredObjects::match_unseen), when the new object's model radius is at
+  // most this times its model's: it is that object found elsewhere (it moved while hidden), so the new object takes
+  // its id and model as from a retired one (it is retired and created under that id in the same frame), instead of
+  // a second id born before the first retires. 0 = off (the thesis); else [1, 10].
+  float reidentify_unseen_radius_ratio = 0.f;
   ModelRegistrationOptions registration;
   // An object lacking support whose model, at its pose, is at least this share occluded by
   // nearer scene points is hidden (a hand in front of it), not gone: such frames do not count
@@ -212,7 +218,9 @@ struct ObjectManagerFrame {
 //      points is that object seen again, its carried pose a guess too far off for tau: it takes the points,
 //      the registered pose and the merged model, and no object is born; a young object grown in step 5
 //      that matched none at birth is matched again so, once its model holds reidentify_grown_min_share
-//      of the remembered model's points;
+//      of the remembered model's points; with reidentify_unseen_radius_ratio > 0, a new object that matches
+//      no retired or carried one is matched so against the live objects not seen this frame (held, or
+//      lacking support): the one it matches is retired and its id taken back at once;
 //   7. join objects born together that moved as one rigid body, split objects whose parts moved
 //      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
 //      one cluster, discover their points again together: once that disagreed with them in
@@ -279,6 +287,9 @@ class ObjectManager {
   // Step 6: the carried object id takes points when its model registers on them (keep_frame): its pose, model and
   // labels; false (nothing changed) when it does not register or there is no registration.
   bool take_points_carried(std::int32_t id, const ColoredCloud& scene, std::span<const int> points);
+  // Step 6: the live object not seen this frame (held or lacking support, not created now) that a new object's
+  // histogram and model match (RetiredObjects::match_unseen) is retired and remembered, to take its id back; 0 = none.
+  std::int32_t retire_unseen_match(const ColorHistogram& histogram, const ObjectModel& model);
   // Step 6: the objects of grown_ born unknown that match a remembered one now take its id.
   void reidentify_grown_objects(const ColoredCloud& scene);
 
@@ -375,7 +386,8 @@ class ObjectManager {
   std::map<std::int32_t, ManagedObject> objects_;
   std::map<std::int32_t, TrackedObject> tracked_;
   RetiredObjects retired_;
-  std::vector<std::int32_t> grown_;  // objects whose models grew this frame (step 5)
+  std::vector<UnseenObject> unseen_;  // step 6: retire_unseen_match's candidates
+  std::vector<std::int32_t> grown_;   // objects whose models grew this frame (step 5)
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
   // Step 7 state: a pair of siblings' relative pose (b in a's frame) and a's pose when it last changed.

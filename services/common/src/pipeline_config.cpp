@@ -39,6 +39,7 @@ constexpr float kConfidenceSeenThroughWeight = 2.f;  // confidence x (1 - this x
 constexpr float kHoldMinScoredShare = 0.2f;          // fewer scored points than this share of the model: hold
 constexpr float kReidentifyGrownMinShare = 0.5f;     // a grown object is matched once it holds this of the model
 constexpr float kNewObjectHeldMargin = 0.02f;        // unexplained points this near a held object's box are its own
+constexpr float kReidentifyUnseenRadiusRatio = 2.f;  // a view of an object lies within its diameter (2 x its radius)
 constexpr float kSplitMinDeparture = 0.03f;          // a part splits off once it departed this far
 constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less (and moved less) stays
 constexpr int kDiscoveryConfirmFrames = 15;          // the discovery is confirmed over an object's first frames
@@ -162,6 +163,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.reidentify_frames = read_option<int>(s, "reidentify_frames");
   c.manager.reidentify_similarity = read_option<float>(s, "reidentify_similarity");
   c.manager.reidentify_grown_min_share = kReidentifyGrownMinShare;
+  c.manager.reidentify_unseen_radius_ratio = kReidentifyUnseenRadiusRatio;
   c.manager.registration.seed = c.manager.model_update.seed;
   {
     // The registration scores like the trackers: their JCSD cell.
