@@ -553,8 +553,10 @@ std::int32_t ObjectManager::retire_unseen_match(const ColorHistogram& histogram,
       retired_.match_unseen(unseen_, histogram, model_radius(model), options_.reidentify_unseen_radius_ratio);
   if (id == 0) return 0;
   const ManagedObject& object = objects_.at(id);
-  retired_.remember(id, {frames_, object.version, color_histogram(object.model), tracked_.at(id).first_seen,
-                         object.model, object.pose, object.part_ends});
+  const auto candidate =
+      std::find_if(unseen_.begin(), unseen_.end(), [id](const UnseenObject& u) { return u.id == id; });
+  retired_.remember(id, {frames_, object.version, candidate->histogram, tracked_.at(id).first_seen, object.model,
+                         object.pose, object.part_ends});
   forget(id);
   frame_.retired.push_back(id);
   std::replace(frame_.labels.begin(), frame_.labels.end(), id, 0);  // its points where it was held are not its own

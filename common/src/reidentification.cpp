@@ -57,10 +57,7 @@ std::int32_t RetiredObjects::match(const ColorHistogram& histogram, std::int64_t
   float best_similarity = similarity_;
   for (const auto& [id, retired] : retired_) {  // ascending ids: ties keep the oldest
     if (retired.retired_frame > retired_by) continue;
-    // An object grown while entering (a hand and its arm) may come back showing only what it
-    // showed first: either view may match.
-    const float similarity =
-        std::max(color_similarity(histogram, retired.histogram), color_similarity(histogram, retired.first_seen));
+    const float similarity = best_view_similarity(histogram, retired.histogram, retired.first_seen);
     if (similarity > best_similarity || (best == 0 && similarity >= best_similarity)) {
       best = id;
       best_similarity = similarity;

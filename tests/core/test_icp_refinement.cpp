@@ -312,22 +312,29 @@ ColoredCloud seen_can(const Pose& truth) {
   return scene;
 }
 
-// Its axis tilted 60 degrees towards the camera.
-Pose can_truth() {
-  return test::make_pose(Eigen::Vector3f(0.02f, 0.f, 0.9f), Eigen::Vector3f::UnitX(), test::radians(-60.f));
-}
+// The striped can, its axis tilted 60 degrees towards the camera, and its view with the points' colour features.
+struct SeenStripedCan {
+  ColoredCloud model = striped_can_model();
+  std::vector<SmrFeature> model_features = compute_smr(model.colors);
+  Pose truth = test::make_pose(Eigen::Vector3f(0.02f, 0.f, 0.9f), Eigen::Vector3f::UnitX(), test::radians(-60.f));
+  ColoredCloud scene = seen_can(truth);
+  std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+
+  // The truth turned by `degrees` about the can's own axis.
+  Pose lagging(float degrees) const {
+    Pose p = truth;
+    p.rotation =
+        (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(degrees), Eigen::Vector3f::UnitZ())))
+            .normalized();
+    return p;
+  }
+};
 
 TEST(IcpRefinement, ColourPairsSeeATurnAboutTheSymmetryAxisThatGeometryCannot) {
-  const ColoredCloud model = striped_can_model();
-  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
-  const Pose truth = can_truth();
-  const ColoredCloud scene = seen_can(truth);
-  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+  const SeenStripedCan can;
+  const auto& [model, model_features, truth, scene, scene_features] = can;
   // The filter's estimate lags the can's turn about its own axis by 8 degrees (5.6 mm of arc).
-  Pose start = truth;
-  start.rotation =
-      (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(8.f), Eigen::Vector3f::UnitZ())))
-          .normalized();
+  const Pose start = can.lagging(8.f);
   IcpRefinementOptions options = iterations(10);
   IcpRefinement geometric(options);
   const IcpResult shape_only = geometric.refine(scene.positions, model.positions, start);
@@ -365,20 +372,14 @@ TEST(IcpRefinement, ColourPairsSeeATurnAboutTheSymmetryAxisThatGeometryCannot) {
 // The pairing looks only at the model points that can cost less than the nearest one: its least costs are those of
 // a search over every model point, at every lag of the turn (exact, not approximate).
 TEST(IcpRefinement, ColourPairingIsTheLeastCostOverEveryModelPoint) {
-  const ColoredCloud model = striped_can_model();
-  const std::vector<SmrFeature> model_features = compute_smr(model.colors);
-  const Pose truth = can_truth();
-  const ColoredCloud scene = seen_can(truth);
-  const std::vector<SmrFeature> scene_features = compute_smr(scene.colors);
+  const SeenStripedCan can;
+  const auto& [model, model_features, truth, scene, scene_features] = can;
   IcpRefinementOptions options = iterations(10);
   options.color_weight = 1.f;
   IcpRefinement colored(options);
   const float r = options.max_distance;
   for (const float lag : {0.f, 2.f, 5.f, 8.f, 12.f}) {
-    Pose pose = truth;
-    pose.rotation =
-        (truth.rotation * Eigen::Quaternionf(Eigen::AngleAxisf(test::radians(lag), Eigen::Vector3f::UnitZ())))
-            .normalized();
+    const Pose pose = can.lagging(lag);
     const Eigen::Isometry3f to_object = pose.isometry().inverse();
     double sum = 0.0;
     for (std::size_t i = 0; i < scene.size(); ++i) {
