@@ -15,28 +15,6 @@
 
 namespace mfot {
 
-void JoinSplitOptions::validate() const {
-  const auto in = [](const char* field, auto value, double low, double high, bool low_open) {
-    require_in_range("JoinSplitOptions", field, value, low, high, low_open);
-  };
-  in("join_frames", join_frames, 0, 10000, false);
-  in("join_translation", join_translation, 0, 0.1, true);
-  in("join_rotation_deg", join_rotation_deg, 0, 45, true);
-  in("join_min_motion", join_min_motion, 0, 1, true);
-  in("join_min_turn_deg", join_min_turn_deg, 0, 180, true);
-  in("join_contact_distance", join_contact_distance, 0, 0.1, true);
-  in("split_frames", split_frames, 0, 10000, false);
-  in("split_min_share", split_min_share, 0, 0.5, true);
-  in("split_min_gap", split_min_gap, 0, 1, false);
-  in("split_max_occluded", split_max_occluded, 0, 1, false);
-  in("split_min_departure", split_min_departure, 0, 1, false);
-  if (split_min_departure > 0.f && split_min_gap <= 0.f) {
-    throw std::invalid_argument(
-        "JoinSplitOptions.split_min_departure needs split_min_gap > 0: parts are followed from "
-        "frame to frame within split_min_gap");
-  }
-}
-
 void ObjectManagerOptions::validate() const {
   segmentation.validate();
   model_update.validate();
@@ -97,6 +75,9 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       occlusion_(options.occlusion),
       refit_(options.refit),
       retired_(options.reidentify_similarity),
+      joiner_(options.join_split),
+      splitter_(options.join_split, options.min_object_points),
+      confirmation_(options.discovery),
       carry_(options.carry),
       propagation_(options.propagation_radius, options.propagation_min_seed_share),
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
@@ -178,7 +159,7 @@ void ObjectManager::take_estimates(const std::map<std::int32_t, ObjectEstimate>&
   }
   if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f) {
     // The bounding spheres of the touch tests' prefilter.
-    touch_memo_.clear();
+    contact_.new_frame();
     for (const auto& [id, object] : objects_) {
       float radius = 0.f;
       for (const Eigen::Vector3f& p : object.model.cloud.positions) radius = std::max(radius, p.norm());
@@ -624,9 +605,8 @@ void ObjectManager::forget(std::int32_t id) {
   support_.forget(id);  // an id taken back at once starts its count afresh
   objects_.erase(id);
   tracked_.erase(id);
-  const auto with_it = [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; };
-  std::erase_if(siblings_, with_it);  // pairs of ids: its siblings' watches and its rigid-part pairs
-  std::erase_if(pairs_, with_it);
+  confirmation_.forget(id);  // its siblings' watches
+  joiner_.forget(id);        // its rigid-part pairs
 }
 
 OcclusionTest& ObjectManager::scene_occlusion(const ColoredCloud& scene) {
@@ -681,60 +661,26 @@ void ObjectManager::choose_companions() {
 }
 
 void ObjectManager::join_rigid_parts() {
-  const JoinSplitOptions& o = options_.join_split;
-  const float max_angle = o.join_rotation_deg * std::numbers::pi_v<float> / 180.f;
-  const float min_turn = o.join_min_turn_deg * std::numbers::pi_v<float> / 180.f;
-  std::vector<std::pair<std::int32_t, std::int32_t>> joins;
-  for (auto a = objects_.begin(); a != objects_.end(); ++a) {
-    for (auto b = std::next(a); b != objects_.end(); ++b) {
-      const ManagedObject& first = a->second;
-      const ManagedObject& second = b->second;
-      if (tracked_.at(first.id).birth != tracked_.at(second.id).birth || first.stale || second.stale) continue;
-      const Eigen::Isometry3f relative = first.pose.isometry().inverse() * second.pose.isometry();
-      PairWatch& watch = pairs_[{first.id, second.id}];
-      const Eigen::Quaternionf turn(watch.relative.linear().transpose() * relative.linear());
-      const bool kept = watch.frames > 0 &&
-                        (relative.translation() - watch.relative.translation()).norm() <= o.join_translation &&
-                        Eigen::AngleAxisf(turn).angle() <= max_angle;
-      if (!kept) {
-        watch = {relative, first.pose, 1};
-        continue;
-      }
-      if (++watch.frames < o.join_frames) continue;
-      const bool moved = (first.pose.translation - watch.start.translation).norm() >= o.join_min_motion ||
-                         first.pose.rotation.angularDistance(watch.start.rotation) >= min_turn;
-      if (moved && models_touch(first, second, o.join_contact_distance)) joins.emplace_back(first.id, second.id);
-    }
+  join_candidates_.clear();
+  for (const auto& [id, object] : objects_) {
+    join_candidates_.push_back({id, tracked_.at(id).birth, object.pose, object.stale});
   }
-  for (const auto& [kept, joined] : joins) {
+  const float distance = options_.join_split.join_contact_distance;
+  const auto touch = [&](std::int32_t a, std::int32_t b) {
+    return contact_.models_touch(placed(a), placed(b), distance);
+  };
+  for (const auto& [kept, joined] : joiner_.update(join_candidates_, touch)) {
     if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
   }
 }
 
-bool ObjectManager::touching(std::int32_t a, std::int32_t b, float distance) {
-  const auto key = std::make_tuple(std::min(a, b), std::max(a, b), distance);
-  if (const auto it = touch_memo_.find(key); it != touch_memo_.end()) return it->second;
-  const ManagedObject& first = objects_.at(std::get<0>(key));
-  const ManagedObject& second = objects_.at(std::get<1>(key));
-  const float reach = tracked_.at(a).model_radius + tracked_.at(b).model_radius + distance;
-  const bool touch =
-      (first.pose.translation - second.pose.translation).norm() <= reach && models_touch(first, second, distance);
-  touch_memo_.emplace(key, touch);
-  return touch;
+PlacedModel ObjectManager::placed(std::int32_t id) const {
+  const ManagedObject& object = objects_.at(id);
+  return {id, &object.model, object.pose, tracked_.at(id).model_radius};
 }
 
-bool ObjectManager::models_touch(const ManagedObject& a, const ManagedObject& b, float distance) {
-  std::vector<Eigen::Vector3f> points;
-  points.reserve(a.model.cloud.size());
-  const Eigen::Isometry3f a_pose = a.pose.isometry();
-  for (const Eigen::Vector3f& p : a.model.cloud.positions) points.push_back(a_pose * p);
-  contact_hash_ = SpatialHash(distance);
-  contact_hash_.build(points);
-  const Eigen::Isometry3f b_pose = b.pose.isometry();
-  for (const Eigen::Vector3f& p : b.model.cloud.positions) {
-    if (contact_hash_.any_within(b_pose * p, distance)) return true;
-  }
-  return false;
+bool ObjectManager::touching(std::int32_t a, std::int32_t b, float distance) {
+  return contact_.touching(placed(a), placed(b), distance);
 }
 
 void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
@@ -760,7 +706,6 @@ void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
 }
 
 void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point) {
-  const JoinSplitOptions& o = options_.join_split;
   std::map<std::int32_t, std::map<std::int32_t, std::vector<int>>> parts;  // object -> cluster -> points
   for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
     if (frame_.labels[i] != 0 && cluster_of_point[i] >= 0) {
@@ -769,105 +714,26 @@ void ObjectManager::split_separated_parts(const ColoredCloud& scene, std::span<c
   }
   std::vector<std::int32_t> ids;
   for (const auto& [id, object] : objects_) ids.push_back(id);
+  std::vector<int> own;
+  std::vector<std::vector<int>> leaving;
   for (const std::int32_t id : ids) {
     ManagedObject& object = objects_.at(id);
-    TrackedObject& tracked = tracked_.at(id);
-    int& streak = tracked.split_streak;
-    std::size_t total = 0;
-    for (const auto& [cluster, points] : parts[id]) total += points.size();
-    std::vector<const std::vector<int>*> large;
-    for (const auto& [cluster, points] : parts[id]) {
-      if (points.size() >= options_.min_object_points &&
-          static_cast<float>(points.size()) >= o.split_min_share * static_cast<float>(total)) {
-        large.push_back(&points);
-      }
+    const auto occluded_share = [&] {
+      return scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose);
+    };
+    if (!splitter_.update(object.pose, object.stale, parts[id], scene.positions, occluded_share, tracked_.at(id).split,
+                          own, leaving)) {
+      continue;
     }
-    bool apart = !object.stale && large.size() >= 2;
-    if (apart && o.split_min_gap > 0.f) {
-      // The two largest parts: no point of one within split_min_gap of the other.
-      std::sort(large.begin(), large.end(), [](const auto* x, const auto* y) { return x->size() > y->size(); });
-      std::vector<Eigen::Vector3f> first;
-      for (const int i : *large[0]) first.push_back(scene.positions[static_cast<std::size_t>(i)]);
-      contact_hash_ = SpatialHash(o.split_min_gap);
-      contact_hash_.build(first);
-      for (const int i : *large[1]) {
-        if (contact_hash_.any_within(scene.positions[static_cast<std::size_t>(i)], o.split_min_gap)) {
-          apart = false;
-          break;
-        }
-      }
-    }
-    if (apart) {
-      apart = scene_occlusion(scene).occluded_share(object.model.cloud.positions, object.pose) <= o.split_max_occluded;
-    }
-    streak = apart ? streak + 1 : 0;
-    const std::vector<SplitPart> parts_apart = follow_parts(object, tracked, scene, apart ? large : decltype(large){});
-    if (streak < o.split_frames) continue;
-    // The object keeps its largest part (first of equals); the others that departed from its motion are new.
-    const auto largest = std::max_element(large.begin(), large.end(),
-                                          [](const auto* x, const auto* y) { return x->size() < y->size(); });
-    std::vector<const std::vector<int>*> leaving;
-    for (std::size_t k = 0; k < large.size(); ++k) {
-      if (large[k] == *largest) continue;
-      const SplitPart& part = parts_apart[k];
-      const Eigen::Isometry3f since = object.pose.isometry() * part.first_pose.isometry().inverse();
-      if ((since * part.first_centroid - part.centroid).norm() >= o.split_min_departure) leaving.push_back(large[k]);
-    }
-    if (leaving.empty()) continue;  // parts of one body so far: the streak goes on
-    streak = 0;
-    tracked.split_pose = Pose{};
-    tracked.split_parts.clear();
-    std::vector<int> own;
-    for (const auto* points : large) {
-      if (std::find(leaving.begin(), leaving.end(), points) == leaving.end()) {
-        own.insert(own.end(), points->begin(), points->end());
-      }
-    }
-    std::sort(own.begin(), own.end());
     rebuild_model(object, scene, own);
     current_birth_ = next_birth_++;
-    for (const auto* points : leaving) {
-      for (const int i : *points) frame_.labels[static_cast<std::size_t>(i)] = 0;
+    for (const std::vector<int>& points : leaving) {
+      for (const int i : points) frame_.labels[static_cast<std::size_t>(i)] = 0;
       const std::size_t before = frame_.created.size();
-      create_object(scene, *points);
+      create_object(scene, points);
       if (frame_.created.size() > before) frame_.split.emplace_back(id, frame_.created.back());
     }
   }
-}
-
-std::vector<SplitPart> ObjectManager::follow_parts(const ManagedObject& object, TrackedObject& tracked,
-                                                   const ColoredCloud& scene,
-                                                   std::span<const std::vector<int>* const> parts) {
-  if (parts.empty()) {  // not seen apart: nothing to follow
-    tracked.split_pose = Pose{};
-    tracked.split_parts.clear();
-    return {};
-  }
-  // Last frame's part each part continues: its centroid, moved with the object or left where it was, is the nearest
-  // within split_min_gap (parts lie that far apart); a part continuing none is first seen now.
-  const Eigen::Isometry3f motion = object.pose.isometry() * tracked.split_pose.isometry().inverse();
-  std::vector<SplitPart> now;
-  for (const std::vector<int>* points : parts) {
-    SplitPart part;
-    for (const int i : *points) part.centroid += scene.positions[static_cast<std::size_t>(i)];
-    part.centroid /= static_cast<float>(points->size());
-    part.first_centroid = part.centroid;
-    part.first_pose = object.pose;
-    float best = options_.join_split.split_min_gap;
-    for (const SplitPart& before : tracked.split_parts) {
-      const float distance =
-          std::min((motion * before.centroid - part.centroid).norm(), (before.centroid - part.centroid).norm());
-      if (distance < best) {
-        best = distance;
-        part.first_centroid = before.first_centroid;
-        part.first_pose = before.first_pose;
-      }
-    }
-    now.push_back(part);
-  }
-  tracked.split_pose = object.pose;
-  tracked.split_parts = now;
-  return now;
 }
 
 void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
@@ -882,7 +748,10 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     leaving.push_back(id);
     tracked.confirm_born_at.reset();
   }
-  if (!leaving.empty()) join_unparted_siblings(leaving);
+  if (!leaving.empty()) {
+    const auto model_size = [&](std::int32_t id) { return objects_.at(id).model.cloud.size(); };
+    for (const auto& [kept, joined] : confirmation_.unparted_siblings(leaving, model_size)) join(kept, joined);
+  }
   // Still young objects by birth (the cluster they were found in), each with its segmented points.
   std::map<std::uint64_t, std::map<std::int32_t, std::vector<int>>> groups;
   std::map<std::int32_t, std::vector<int>*> points_of;
@@ -891,7 +760,7 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     const ManagedObject& object = objects_.at(id);
     if (frames_ - object.created_frame >= 1 && !object.stale) points_of[id] = &groups[tracked.birth][id];
   }
-  std::erase_if(confirm_votes_, [&](const auto& entry) { return !groups.contains(entry.first); });
+  confirmation_.keep_votes_of([&](std::uint64_t birth) { return groups.contains(birth); });
   if (groups.empty()) return;
   for (std::size_t i = 0; i < frame_.labels.size(); ++i) {
     const auto it = points_of.find(frame_.labels[i]);
@@ -904,92 +773,12 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     for (const auto& [id, points] : members) all.insert(all.end(), points.begin(), points.end());
     if (all.size() < 2 * options_.min_object_points) continue;
     discover_parts(scene, all, parts);
-    const PartMatch match = match_parts(parts);
-    watch_siblings(members, match);
-    if (!match.disagrees(static_cast<std::size_t>(o.min_part_points)) || ++confirm_votes_[birth] < o.confirm_votes) {
-      continue;
-    }
-    confirm_votes_[birth] = 0;
-    adopt_parts(scene, birth, all, parts, match);
-  }
-}
-
-void ObjectManager::watch_siblings(const std::map<std::int32_t, std::vector<int>>& members, const PartMatch& match) {
-  std::map<std::int32_t, std::pair<std::size_t, std::size_t>> main_part;  // member -> (its points there, part)
-  for (std::size_t p = 0; p < match.labels_in_part.size(); ++p) {
-    for (const auto& [id, count] : match.labels_in_part[p]) {
-      if (!members.contains(id)) continue;
-      auto& best = main_part[id];
-      if (count > best.first) best = {count, p};
+    const PartMatch match = DiscoveryConfirmation::match(parts, frame_.labels);
+    confirmation_.watch_siblings(members, match);
+    if (confirmation_.vote(birth, match.disagrees(static_cast<std::size_t>(o.min_part_points)))) {
+      adopt_parts(scene, birth, all, parts, match);
     }
   }
-  for (auto a = main_part.begin(); a != main_part.end(); ++a) {
-    for (auto b = std::next(a); b != main_part.end(); ++b) {
-      SiblingWatch& watch = siblings_[{a->first, b->first}];
-      ++(a->second.second == b->second.second ? watch.together : watch.apart);
-    }
-  }
-}
-
-void ObjectManager::join_unparted_siblings(std::span<const std::int32_t> leaving) {
-  const DiscoveryOptions& o = options_.discovery;
-  const int min_together = o.confirm_frames - o.confirm_votes + 1;
-  std::vector<std::pair<std::int32_t, std::int32_t>> joins;  // (kept, joined)
-  for (auto it = siblings_.begin(); it != siblings_.end();) {
-    const auto [a, b] = it->first;
-    if (std::find(leaving.begin(), leaving.end(), a) == leaving.end() &&
-        std::find(leaving.begin(), leaving.end(), b) == leaving.end()) {
-      ++it;
-      continue;
-    }
-    if (it->second.apart == 0 && it->second.together >= min_together) {
-      const bool a_larger = objects_.at(a).model.cloud.size() >= objects_.at(b).model.cloud.size();
-      joins.emplace_back(a_larger ? a : b, a_larger ? b : a);
-    }
-    it = siblings_.erase(it);
-  }
-  std::map<std::int32_t, std::int32_t> joined_into;  // a piece of three joins what its sibling joined
-  const auto now_in = [&](std::int32_t id) {
-    for (auto it = joined_into.find(id); it != joined_into.end(); it = joined_into.find(id)) id = it->second;
-    return id;
-  };
-  for (const auto& [larger, smaller] : joins) {
-    const std::int32_t kept = now_in(larger), joined = now_in(smaller);
-    if (kept == joined) continue;
-    join(kept, joined);
-    joined_into[joined] = kept;
-  }
-}
-
-ObjectManager::PartMatch ObjectManager::match_parts(const std::vector<std::vector<int>>& parts) const {
-  PartMatch match;
-  match.labels_in_part.resize(parts.size());
-  match.member_of_part.assign(parts.size(), 0);
-  std::vector<std::tuple<std::size_t, std::int32_t, std::size_t>> overlaps;  // (points, member, part)
-  for (std::size_t p = 0; p < parts.size(); ++p) {
-    for (const int i : parts[p]) ++match.labels_in_part[p][frame_.labels[static_cast<std::size_t>(i)]];
-    for (const auto& [id, count] : match.labels_in_part[p]) overlaps.emplace_back(count, id, p);
-  }
-  std::sort(overlaps.begin(), overlaps.end(), [](const auto& x, const auto& y) {
-    return std::get<0>(x) != std::get<0>(y) ? std::get<0>(x) > std::get<0>(y) : std::get<1>(x) < std::get<1>(y);
-  });
-  for (const auto& [count, id, p] : overlaps) {
-    if (match.member_of_part[p] == 0 && !match.part_of_member.contains(id)) {
-      match.member_of_part[p] = id;
-      match.part_of_member[id] = p;
-    }
-  }
-  return match;
-}
-
-bool ObjectManager::PartMatch::disagrees(std::size_t min_piece) const {
-  if (std::count(member_of_part.begin(), member_of_part.end(), 0) > 0) return true;
-  for (std::size_t p = 0; p < member_of_part.size(); ++p) {
-    for (const auto& [id, count] : labels_in_part[p]) {
-      if (id != member_of_part[p] && part_of_member.contains(id) && count >= min_piece) return true;
-    }
-  }
-  return false;
 }
 
 void ObjectManager::adopt_parts(const ColoredCloud& scene, std::uint64_t birth, std::span<const int> all,

@@ -16,9 +16,12 @@
 
 #include "mfot/carry_monitor.hpp"
 #include "mfot/companion_motion.hpp"
+#include "mfot/discovery_confirmation.hpp"
 #include "mfot/individuation.hpp"
+#include "mfot/join_split.hpp"
 #include "mfot/label_propagation.hpp"
 #include "mfot/likelihood.hpp"
+#include "mfot/model_contact.hpp"
 #include "mfot/model_registration.hpp"
 #include "mfot/model_updater.hpp"
 #include "mfot/object_discovery.hpp"
@@ -32,40 +35,6 @@
 #include "mfot/types.hpp"
 
 namespace mfot {
-
-// Joining parts of one rigid object and splitting an object whose parts moved apart (step 7 of
-// ObjectManager). Member defaults: both off (the thesis has neither).
-struct JoinSplitOptions {
-  // Objects born together (one cluster split by the discovery) whose relative pose stays within
-  // join_translation / join_rotation_deg for join_frames frames while the older one moves at least
-  // join_min_motion or turns join_min_turn_deg, and whose models touch (join_contact_distance),
-  // are one object: the younger joins the older. 0 frames = off.
-  int join_frames = 0;                  // [0, 10000]
-  float join_translation = 0.005f;      // metres, (0, 0.1]
-  float join_rotation_deg = 3.f;        // (0, 45]
-  float join_min_motion = 0.03f;        // metres, (0, 1]
-  float join_min_turn_deg = 20.f;       // (0, 180]
-  float join_contact_distance = 0.01f;  // metres, (0, 0.1]
-  // An object whose segmented points lie in two or more clusters, each holding at least
-  // split_min_share of them (and min_object_points), the largest two split_min_gap apart, for
-  // split_frames frames in a row while at
-  // most split_max_occluded of its model is hidden (a hand in front cuts the visible part in
-  // two), is split: every part that departed from the object's motion (split_min_departure) becomes a
-  // new object, and the object keeps the others, the largest among them (its model is rebuilt from
-  // them). 0 frames = off.
-  int split_frames = 0;          // [0, 10000]
-  float split_min_share = 0.2f;  // (0, 0.5]
-  // The parts must lie at least this far apart (metres, [0, 1]): a grazing view that cuts an arm
-  // from its hand by a few centimetres is not two objects.
-  float split_min_gap = 0.03f;
-  float split_max_occluded = 0.1f;  // [0, 1]
-  // A part other than the largest splits off only once it has departed this far (metres, [0, 1]) from where the
-  // object's own motion since the part was first seen apart would have put it (its centroid): a hand seen in two
-  // clusters (its front and its arm) moves as one, a box it lets go of stays behind. 0 = any part splits; above 0
-  // it needs split_min_gap > 0 (parts are followed from frame to frame within it).
-  float split_min_departure = 0.f;
-  void validate() const;
-};
 
 // Member defaults: the thesis's values, for library users and unit tests; the services and
 // mfot-inprocess fill every field from configs/default.yaml (the shipped defaults).
@@ -128,7 +97,7 @@ struct ObjectManagerOptions {
   // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
   // make_object_discovery and hand it to the manager (the manager itself only validates it).
   DiscoveryOptions discovery;
-  JoinSplitOptions join_split;
+  JoinSplitOptions join_split;  // step 7: RigidPartJoin and PartSplit
   // Hidden objects carried by the object they moved with (CarryMonitor; frames 0 = off, the thesis).
   CarryOptions carry;
   // Each seen object's companion: the touching object whose last step its filter may follow
@@ -221,13 +190,14 @@ struct ObjectManagerFrame {
 //      of the remembered model's points; with reidentify_unseen_radius_ratio > 0, a new object that matches
 //      no retired or carried one is matched so against the live objects not seen this frame (held, or
 //      lacking support): the one it matches is retired and its id taken back at once;
-//   7. join objects born together that moved as one rigid body, split objects whose parts moved
-//      apart (JoinSplitOptions), and, over the first confirm_frames frames of the objects born from
-//      one cluster, discover their points again together: once that disagreed with them in
-//      confirm_votes frames, its parts become the objects, and two of them that it never told apart are
-//      one (DiscoveryOptions).
+//   7. join objects born together that moved as one rigid body (RigidPartJoin), split objects whose parts
+//      moved apart (PartSplit; both join_split.hpp), and, over the first confirm_frames frames of the objects born
+//      from one cluster, discover their points again together: once that disagreed with them in confirm_votes
+//      frames, its parts become the objects, and two of them that it never told apart are one
+//      (DiscoveryConfirmation).
 // Per live object the manager publishes a ManagedObject (objects()) and keeps one TrackedObject (tracked_object.hpp);
-// retired objects are remembered by RetiredObjects (reidentification.hpp), hidden objects' watches by CarryMonitor.
+// retired objects are remembered by RetiredObjects (reidentification.hpp), hidden objects' watches by CarryMonitor,
+// pairs' watches by RigidPartJoin and DiscoveryConfirmation; the contact tests of steps 1 and 7 are ModelContact's.
 // Deterministic: object ids increase from 1, every draw comes from per-object seeded updaters.
 class ObjectManager {
  public:
@@ -310,39 +280,19 @@ class ObjectManager {
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
   // Step 3's re-fit of grown parts (PartRefit) of every object with a new estimate, on its segmented points.
   void refit_parts(const ColoredCloud& scene);
-  // Step 7.
+  // Step 7: siblings that moved as one rigid body join (RigidPartJoin).
   void join_rigid_parts();
-  bool models_touch(const ManagedObject& a, const ManagedObject& b, float distance);
-  // Step 1's touch test of carrying and companions: models_touch of two objects at this frame's poses,
-  // their bounding spheres (TrackedObject::model_radius) first, since most pairs end there; each pair and distance is
-  // tested once a frame (touch_memo_).
+  // An object for the contact test (ModelContact): its model at this frame's pose, its bounding radius.
+  PlacedModel placed(std::int32_t id) const;
+  // Step 1's touch test of carrying and companions (ModelContact::touching, memoised per frame).
   bool touching(std::int32_t a, std::int32_t b, float distance);
+  // joined's model and points go to kept; joined is retired.
   void join(std::int32_t kept, std::int32_t joined);
+  // Step 7: objects whose parts moved apart are split (PartSplit).
   void split_separated_parts(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point);
   // The objects born from one cluster are split again by the discovery in their first frames; where it disagrees
-  // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects.
+  // with them (DiscoveryOptions::confirm_frames, confirm_votes) its parts become the objects (DiscoveryConfirmation).
   void confirm_discovery(const ColoredCloud& scene);
-  // Step 7 (split): this frame's parts of an object (empty: not apart, and its record's parts go), each followed
-  // from last frame's (TrackedObject::split_parts).
-  std::vector<SplitPart> follow_parts(const ManagedObject& object, TrackedObject& tracked, const ColoredCloud& scene,
-                                      std::span<const std::vector<int>* const> parts);
-  // How the discovery's parts of a birth's objects meet those objects (this frame's labels): each object takes
-  // the part it overlaps most, largest overlaps first, one part per object and object per part.
-  struct PartMatch {
-    std::vector<std::map<std::int32_t, std::size_t>> labels_in_part;  // per part: label -> its points there
-    std::vector<std::int32_t> member_of_part;                         // 0: no object took the part
-    std::map<std::int32_t, std::size_t> part_of_member;
-    // A part no object took (two objects found as one), or a piece of at least min_piece points of one object
-    // inside another's part (the birth frame's boundary was wrong).
-    bool disagrees(std::size_t min_piece) const;
-  };
-  PartMatch match_parts(const std::vector<std::vector<int>>& parts) const;
-  // Step 7: counts, for each pair of the birth's objects, whether the part holding most of one's points
-  // holds most of the other's too.
-  void watch_siblings(const std::map<std::int32_t, std::vector<int>>& members, const PartMatch& match);
-  // Step 7: the pairs with an object that leaves the confirmation are decided (the smaller of a pair never
-  // seen apart, in enough frames, joins the larger) and forgotten.
-  void join_unparted_siblings(std::span<const std::int32_t> leaving);
   // This frame's parts become the objects: an object keeps its part (model rebuilt from it; other objects' points
   // in it join it), a part no object took is a new sibling (if it then moves as one rigid body with the others,
   // join_rigid_parts puts them together again); an object that took no part keeps its points.
@@ -390,33 +340,19 @@ class ObjectManager {
   std::vector<std::int32_t> grown_;   // objects whose models grew this frame (step 5)
   std::int32_t next_id_ = 1;
   std::int64_t frames_ = 0;
-  // Step 7 state: a pair of siblings' relative pose (b in a's frame) and a's pose when it last changed.
-  struct PairWatch {
-    Eigen::Isometry3f relative = Eigen::Isometry3f::Identity();
-    Pose start;
-    int frames = 0;
-  };
   std::uint64_t next_birth_ = 1;
   std::uint64_t current_birth_ = 0;
-  std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
-  // Per birth (the objects found in one cluster) in the confirmation, the frames in which the discovery disagreed
-  // with them.
-  std::map<std::uint64_t, int> confirm_votes_;
-  // Per pair of siblings (lower id first) in the confirmation: frames in which most of their points lay in one
-  // part, and in different parts.
-  struct SiblingWatch {
-    int together = 0;
-    int apart = 0;
-  };
-  std::map<std::pair<std::int32_t, std::int32_t>, SiblingWatch> siblings_;
+  RigidPartJoin joiner_;                // step 7
+  PartSplit splitter_;                  // step 7
+  DiscoveryConfirmation confirmation_;  // step 7
+  std::vector<JoinCandidate> join_candidates_;
   bool occlusion_scene_set_ = false;
-  SpatialHash contact_hash_{0.01f};
+  ModelContact contact_;  // steps 1 and 7
   CarryMonitor carry_;
   std::vector<CarryMonitor::Object> carry_objects_;
   std::optional<ViewBounds> view_;
   // This frame's objects gripped away while hidden, to retire.
   std::vector<std::int32_t> gripped_away_;
-  std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> touch_memo_;  // (lower id, higher id, distance)
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
   ClusterSet clusters_;

@@ -1,0 +1,50 @@
+#pragma once
+// Whether two objects touch: some point of one's model, placed at its pose, lies within a distance of
+// some point of the other's. The contact test behind joining rigid parts (RigidPartJoin), carrying hidden
+// objects (CarryMonitor) and choosing companions (companion_motion.hpp); not a step of the thesis, whose
+// objects never interact. Steps of touching():
+//   1. a pair already tested this frame at this distance gives the same answer (the memo; new_frame() clears it);
+//   2. bounding spheres: objects whose origins lie farther apart than their radii and the distance do not touch
+//      (most pairs of a scene end here);
+//   3. otherwise models_touch(): the first model's points hashed at the distance, the second's looked up.
+
+#include <cstdint>
+#include <map>
+#include <tuple>
+#include <vector>
+
+#include "mfot/likelihood.hpp"
+#include "mfot/spatial_hash.hpp"
+#include "mfot/types.hpp"
+
+namespace mfot {
+
+// One object's model at a pose, for the contact test. model must outlive the call.
+struct PlacedModel {
+  std::int32_t id = 0;
+  const ObjectModel* model = nullptr;  // object frame
+  Pose pose;                           // object -> camera
+  float radius = 0.f;                  // metres, >= the model's farthest point from its origin (step 2)
+};
+
+class ModelContact {
+ public:
+  ModelContact() = default;
+  ModelContact(const ModelContact&) = delete;
+  ModelContact& operator=(const ModelContact&) = delete;
+
+  // Whether a point of b's model lies within distance (metres, > 0) of a point of a's model, both at their poses.
+  // Not memoised.
+  bool models_touch(const PlacedModel& a, const PlacedModel& b, float distance);
+  // models_touch after steps 1 and 2; the pair's order does not matter (ids differ).
+  bool touching(const PlacedModel& a, const PlacedModel& b, float distance);
+  // Forgets the memo: poses and models change between frames.
+  void new_frame() { memo_.clear(); }
+
+ private:
+  SpatialHash hash_{0.01f};
+  std::vector<Eigen::Vector3f> points_;
+  std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> memo_;  // (lower id, higher id, distance)
+};
+
+}  // namespace mfot
