@@ -223,29 +223,46 @@ struct PileResult {
   int missed_merged = 0, missed_split = 0, missed_unassigned = 0;  // why the missed objects were missed
 };
 
+// The tests' config: MFOT_PILE_CONFIG's file when set (a config of one's own), else `overlay` over the defaults.
+YAML::Node pile_config(const YAML::Node& overlay) {
+  const char* own = std::getenv("MFOT_PILE_CONFIG");
+  return own != nullptr ? service::load_config_file(own) : service::merged_over_defaults(overlay);
+}
+
+// A rendered frame through the preprocessing and a new ObjectManager with its discovery: the merger's first frame.
+struct FirstFrame {
+  FirstFrame(const YAML::Node& config, const sim::RenderedFrame& frame)
+      : preprocessor(service::load_preprocess_config(config).preprocessor),
+        cloud(preprocessor.process(sim::image_view(frame))) {
+    const auto merger = service::load_merger_config(config);
+    ColoredCloud points;
+    points.positions = cloud.positions;
+    points.colors = cloud.colors;
+    ObjectManager manager(merger.manager, make_object_discovery(merger.manager.discovery));
+    const auto t0 = std::chrono::steady_clock::now();
+    labels = manager.process(points, cloud.cluster, {}).labels;
+    ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  Preprocessor preprocessor;
+  const SceneCloud& cloud;           // the preprocessed frame (owned by preprocessor)
+  std::vector<std::int32_t> labels;  // per cloud point: its object, 0 = none
+  double ms = 0.0;                   // ObjectManager::process, discovery included
+};
+
 PileResult first_frame_objects(const std::vector<Body>& bodies, std::uint64_t noise_seed) {
   // The defaults with discovery's colour cut on (merger.discovery.color_cut, off as shipped: at 35 it split the
   // striped can of `contact`, 99.8 -> 82.2 % over 60 frames) and parts down to 150 points (the shipped 400 keeps a
   // bottle's neck with its body but joins a pile's smaller objects to their neighbours: 37 of 45 found here against
   // 45); MFOT_PILE_CONFIG: a config of one's own instead.
-  const char* overlay = std::getenv("MFOT_PILE_CONFIG");
   YAML::Node colour_cut;
   colour_cut["merger"]["discovery"]["color_cut"] = 35;
   colour_cut["merger"]["discovery"]["min_part_points"] = 150;
-  const YAML::Node config =
-      overlay != nullptr ? service::load_config_file(overlay) : service::merged_over_defaults(colour_cut);
-  const auto preprocess = service::load_preprocess_config(config);
-  const auto merger = service::load_merger_config(config);
   const sim::RenderedFrame frame = render(bodies, noise_seed);
-  Preprocessor preprocessor(preprocess.preprocessor);
-  const SceneCloud& cloud = preprocessor.process(sim::image_view(frame));
-  ColoredCloud points;
-  points.positions = cloud.positions;
-  points.colors = cloud.colors;
-  ObjectManager manager(merger.manager, make_object_discovery(merger.manager.discovery));
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<std::int32_t> labels = manager.process(points, cloud.cluster, {}).labels;
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const FirstFrame first(pile_config(colour_cut), frame);
+  const SceneCloud& cloud = first.cloud;
+  const std::vector<std::int32_t>& labels = first.labels;
+  const double ms = first.ms;
+  const Preprocessor& preprocessor = first.preprocessor;
   if (const char* dump = std::getenv("MFOT_PILE_DUMP"); dump != nullptr) {  // colour | truth | objects, one PPM
     const int w = frame.intrinsics.width, h = frame.intrinsics.height;
     const auto voxel_of_pixel = preprocessor.pixel_voxel_index();
@@ -419,10 +436,7 @@ TEST(PileDiscovery, APileAcrossTheTableStandsOnIt) {
 // shoulder, like a small box on a book in a pile, so only the part size keeps them together (150 cut 13 of these 26
 // bottles, 52 of 94 over seeds 1-60; 400 none).
 TEST(PileDiscovery, ProceduralFirstFramesKeepBottlesWhole) {
-  const char* overlay = std::getenv("MFOT_PILE_CONFIG");
-  const YAML::Node config = overlay != nullptr ? service::load_config_file(overlay) : service::merged_over_defaults({});
-  const auto preprocess = service::load_preprocess_config(config);
-  const auto merger = service::load_merger_config(config);
+  const YAML::Node config = pile_config({});
   std::map<std::string, std::array<int, 3>> by_shape;  // bodies, found, split (a second object holds >= 10 %)
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     sim::SimulatorOptions options;
@@ -430,13 +444,9 @@ TEST(PileDiscovery, ProceduralFirstFramesKeepBottlesWhole) {
     options.scenario.seed = seed;
     const sim::Simulator simulator(options);
     const sim::RenderedFrame frame = simulator.render(0);
-    Preprocessor preprocessor(preprocess.preprocessor);
-    const SceneCloud& cloud = preprocessor.process(sim::image_view(frame));
-    ColoredCloud points;
-    points.positions = cloud.positions;
-    points.colors = cloud.colors;
-    ObjectManager manager(merger.manager, make_object_discovery(merger.manager.discovery));
-    const std::vector<std::int32_t> labels = manager.process(points, cloud.cluster, {}).labels;
+    const FirstFrame first(config, frame);
+    const SceneCloud& cloud = first.cloud;
+    const std::vector<std::int32_t>& labels = first.labels;
     std::map<int, int> truth_size, object_size;
     std::map<int, std::map<int, int>> overlap;  // body -> object -> voxels
     for (std::size_t i = 0; i < cloud.size(); ++i) {

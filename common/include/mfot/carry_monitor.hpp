@@ -1,10 +1,9 @@
 #pragma once
 // Objects carried while hidden (a departure from the thesis, whose filters follow whatever covers an
-// object; docs/departures.md): a box that a hand grips, lifts and turns is
-// hidden behind that hand for a second or more (`rotate`: 30-45 frames, up to 94 % of its model
-// occluded, while it turns 50 degrees). Its tracker can only hold it (TrackingStep), so its pose
-// would wait where it was last seen. When, before it was hidden, it moved rigidly with an object
-// touching it, its pose follows that carrier's motion while it is hidden:
+// object; docs/departures.md): a box that a hand grips, lifts and turns may be
+// hidden behind that hand for a second or more, most of its model occluded while it turns. Its tracker can only hold it
+// (TrackingStep), so its pose would wait where it was last seen. When, before it was hidden, it moved rigidly with an
+// object touching it, its pose follows that carrier's motion while it is hidden:
 //   pose_t = carrier_t * carrier_k^-1 * pose_k,  k = the last frame it was seen.
 // Steps of update(), per frame:
 //   1. for every pair of objects seen this frame (not hidden, not stale) whose models touch (the
@@ -13,16 +12,16 @@
 //      sliding window, so that a grip held for seconds, over which the two estimates drift apart by
 //      more than the tolerance, still counts) and notes whether the other moved min_motion or turned
 //      min_turn_deg since the watch began, and whether the object itself did (a hand creeping past a
-//      still object, slower than the tolerance per window, keeps the window but never moved it:
-//      `stack` seed 36's arm carried a can it hid 6 cm off); beyond the tolerance, or no longer
+//      still object, slower than the tolerance per window, keeps the window but never moved it, and
+//      would carry the object off with it); beyond the tolerance, or no longer
 //      touching, the watch starts over. Watches of hidden objects wait (neither counted nor reset)
 //      until they are seen again;
 //   2. a hidden object is carried by the seen neighbour whose watch ran at least `frames` frames with
 //      both motions (the longest such watch; ties: the lower id);
 //   3. its pose is that neighbour's pose composed with their relative pose of the object's last seen
 //      frame.
-// A hand may cover a box before it grips it (`apart`: the box is hidden from the frame the hand
-// comes within 3 cm, and the hand lifts it away 20 frames later): then no watch of step 1 saw them
+// A hand may cover a box before it grips it (the box hidden from the frame the hand comes near, and
+// lifted away some frames later): then no watch of step 1 saw them
 // move together. With seen_through_share > 0, steps 4-6 carry such an object too:
 //   4. for every hidden object and seen neighbour that touch at this frame's poses (the hidden one's
 //      is where it is held), a hidden watch keeps the object's pose in the neighbour's frame at the
