@@ -89,6 +89,36 @@ class IdChurnTest(unittest.TestCase):
         self.assertEqual((rebirth["object"], rebirth["old_id"], rebirth["new_id"], rebirth["frame"]), (2, 2, 4, 50))
         self.assertAlmostEqual(rebirth["speed_m_s"], 0.15, places=3)  # 5 mm a frame at 30 frames/s
 
+    def test_labels_match_an_id_to_the_body_it_covers_not_the_nearest_origin(self):
+        # Hand 101 reaches in above object 1: its id 2 is born from its fingertips, whose centroid (the id's origin)
+        # lies 3 cm from object 1's origin and 20 cm from the palm's. By position id 2 is a second id of object 1; by
+        # its labelled points (mfot-evaluate's segments table) it is the hand's.
+        with tempfile.TemporaryDirectory() as tmp:
+            run = Path(tmp)
+            truth, poses = [], []
+            for f in range(60):
+                truth += [[f, 0, 1, 0, 0.0, 0.0, 1.0], [f, 0, 101, 1, 0.0, -0.2, 0.8]]
+                poses.append([f, 0, 1, 0.0, 0.0, 1.0])
+                if f >= 20:
+                    poses.append([f, 0, 2, 0.0, -0.03, 0.99])
+            write_csv(run / "groundtruth" / "poses.csv", ["frame", "utime", "object_id", "is_hand", "x", "y", "z"],
+                      truth)
+            write_csv(run / "poses.csv", ["frame", "utime", "object_id", "x", "y", "z"], poses)
+            segments = run / "eval" / "run_segments.csv"
+            write_csv(segments, ["groundtruth_id", "predicted_id", "mapped_groundtruth_id", "points", "share_of_points",
+                                 "share_of_groundtruth", "frames"],
+                      [[0, 2, 101, 40, 0.001, 0.0, 10], [1, 1, 1, 9000, 0.6, 0.99, 60], [1, 2, 101, 30, 0.002, 0.01, 5],
+                       [101, 2, 101, 4000, 0.3, 0.97, 40], [101, 1, 1, 90, 0.01, 0.02, 8]])
+            by_position = soak.id_churn(run, warmup_frame=0, match_m=0.10)
+            by_labels = soak.id_churn(run, warmup_frame=0, match_m=0.10, segments=segments)
+        self.assertEqual(by_position["matched_by"], "position")
+        self.assertEqual(by_position["ids_per_object"], {"1": [1, 2]})
+        self.assertEqual(by_position["rebirths"], 1)
+        self.assertEqual(by_labels["matched_by"], "labels")
+        self.assertEqual(by_labels["ids_per_object"], {"1": [1]})
+        self.assertEqual(by_labels["rebirths"], 0)
+        self.assertEqual(by_labels["ids_on_hands"], [2])
+
     def test_no_ground_truth_no_churn(self):
         with tempfile.TemporaryDirectory() as tmp:
             self.assertIsNone(soak.id_churn(Path(tmp), warmup_frame=0, match_m=0.10))
