@@ -9,6 +9,7 @@
 #include <string>
 
 #include "mfot/hypothesis.hpp"
+#include "mfot/model_parts.hpp"
 #include "mfot/option_range.hpp"
 #include "mfot/particle_filter.hpp"
 #include "mfot/preprocessing.hpp"
@@ -306,47 +307,6 @@ void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const 
   }
 }
 
-namespace {
-
-// Indices (ascending) of a spatially even subset of at most max_points of the cloud: the first
-// point of every voxel (VoxelDownsampler, voxels in order of their first point) of a leaf that
-// grows by 25 % from 2 mm until few enough voxels are occupied. Earlier points win their voxels,
-// so an existing model keeps its points where the gained ones add nothing.
-std::vector<std::uint32_t> even_subset(const ColoredCloud& cloud, std::size_t max_points) {
-  std::vector<std::uint32_t> chosen(cloud.size());
-  std::iota(chosen.begin(), chosen.end(), 0u);
-  const std::vector<std::uint32_t> all = chosen;
-  for (float leaf = 0.002f; chosen.size() > max_points && leaf <= 1.f; leaf *= 1.25f) {
-    VoxelDownsampler voxels(leaf);
-    voxels.downsample(cloud.positions, cloud.colors, all);
-    chosen.assign(voxels.first_source_ids().begin(), voxels.first_source_ids().end());
-  }
-  chosen.resize(std::min(chosen.size(), max_points));  // a cap below the voxels left at 1 m: the first ones
-  return chosen;
-}
-
-// The model's spatially even subset of at most max_points (even_subset), features kept with their points;
-// part_ends (ManagedObject::part_ends, of the model given) become those of the subset, empty parts dropped.
-ObjectModel thinned(ObjectModel model, std::size_t max_points, std::vector<std::uint32_t>& part_ends) {
-  const std::vector<std::uint32_t> keep = even_subset(model.cloud, max_points);
-  if (keep.size() == model.cloud.size()) return model;
-  for (std::uint32_t& end : part_ends) {  // keep ascends: the points kept before each end
-    end = static_cast<std::uint32_t>(std::lower_bound(keep.begin(), keep.end(), end) - keep.begin());
-  }
-  part_ends.erase(std::unique(part_ends.begin(), part_ends.end()), part_ends.end());
-  if (!part_ends.empty() && part_ends.front() == 0) part_ends.erase(part_ends.begin());
-  ObjectModel out;
-  out.cloud.reserve(keep.size());
-  out.features.reserve(keep.size());
-  for (const std::uint32_t k : keep) {
-    out.cloud.push_back(model.cloud.positions[k], model.cloud.colors[k]);
-    out.features.push_back(model.features[k]);
-  }
-  return out;
-}
-
-}  // namespace
-
 void ObjectManager::refit_parts(const ColoredCloud& scene) {
   segmented_.clear();
   for (const auto& [id, object] : objects_) {
@@ -367,21 +327,18 @@ void ObjectManager::refit_parts(const ColoredCloud& scene) {
 
 void ObjectManager::grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained) {
   const Eigen::Isometry3f camera_to_object = object.pose.isometry().inverse();
-  ObjectModel grown = object.model;
-  std::vector<Rgb8> added_colors;
-  added_colors.reserve(gained.size());
+  part_points_.clear();
+  part_colors_.clear();
   for (const int g : gained) {
     const auto i = static_cast<std::size_t>(g);
-    grown.cloud.push_back(camera_to_object * scene.positions[i], scene.colors[i]);
-    added_colors.push_back(scene.colors[i]);
+    part_points_.push_back(camera_to_object * scene.positions[i]);
+    part_colors_.push_back(scene.colors[i]);
   }
-  const auto features = compute_smr(added_colors, options_.smr);
-  grown.features.insert(grown.features.end(), features.begin(), features.end());
-  object.part_ends.push_back(static_cast<std::uint32_t>(grown.cloud.size()));
   // Over the size limit the model thins out evenly instead of refusing the new part: an arm
   // reaching further in stays covered, so tau keeps segmenting it where the clustering splits
   // it from the hand (grazing views of an arm pointing at the camera).
-  object.model = thinned(std::move(grown), options_.max_model_points, object.part_ends);
+  object.model = with_part(std::move(object.model), part_points_, part_colors_, compute_smr(part_colors_, options_.smr),
+                           options_.max_model_points, object.part_ends);
   ++object.version;
 }
 
@@ -587,15 +544,11 @@ bool ObjectManager::keep_frame(const ObjectModel& model, const Pose& pose, std::
   // The remembered model first (its points win their voxels when thinning), then the new points
   // in its frame.
   const Eigen::Isometry3f camera_to_object = found->pose.isometry().inverse();
-  ObjectModel whole = model;
-  for (std::size_t k = 0; k < registration_points_.points.size(); ++k) {
-    whole.cloud.push_back(camera_to_object * registration_points_.points[k], registration_points_.colors[k]);
-  }
-  whole.features.insert(whole.features.end(), registration_points_.features.begin(),
-                        registration_points_.features.end());
+  part_points_.clear();
+  for (const Eigen::Vector3f& p : registration_points_.points) part_points_.push_back(camera_to_object * p);
   object.part_ends.assign(part_ends.begin(), part_ends.end());
-  object.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));
-  object.model = thinned(std::move(whole), options_.max_model_points, object.part_ends);
+  object.model = with_part(model, part_points_, registration_points_.colors, registration_points_.features,
+                           options_.max_model_points, object.part_ends);
   object.pose = found->pose;
   return true;
 }
@@ -687,14 +640,12 @@ void ObjectManager::join(std::int32_t kept_id, std::int32_t joined_id) {
   ManagedObject& kept = objects_.at(kept_id);
   const ManagedObject& joined = objects_.at(joined_id);
   const Eigen::Isometry3f kept_from_joined = kept.pose.isometry().inverse() * joined.pose.isometry();
-  ObjectModel whole = kept.model;
-  for (std::size_t i = 0; i < joined.model.cloud.size(); ++i) {
-    whole.cloud.push_back(kept_from_joined * joined.model.cloud.positions[i], joined.model.cloud.colors[i]);
-  }
-  // SMR features depend on colour only: the joined part's stay valid in the kept frame.
-  whole.features.insert(whole.features.end(), joined.model.features.begin(), joined.model.features.end());
-  kept.part_ends.push_back(static_cast<std::uint32_t>(whole.cloud.size()));  // placed by the two poses: one part
-  kept.model = thinned(std::move(whole), options_.max_model_points, kept.part_ends);
+  part_points_.clear();
+  for (const Eigen::Vector3f& p : joined.model.cloud.positions) part_points_.push_back(kept_from_joined * p);
+  // SMR features depend on colour only: the joined part's stay valid in the kept frame. Placed by the two poses: one
+  // part.
+  kept.model = with_part(std::move(kept.model), part_points_, joined.model.cloud.colors, joined.model.features,
+                         options_.max_model_points, kept.part_ends);
   ++kept.version;
   kept.support += joined.support;
   for (std::int32_t& label : frame_.labels) {

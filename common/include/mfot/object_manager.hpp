@@ -322,6 +322,7 @@ class ObjectManager {
   std::unique_ptr<ObjectDiscovery> discovery_;
   std::vector<Eigen::Vector3f> part_positions_;
   std::vector<Rgb8> part_colors_;
+  std::vector<Eigen::Vector3f> part_points_;  // a part to append (with_part), model frame
   std::vector<int> part_of_point_;
   PartBoundaryRefiner part_boundary_;
   Segmenter segmenter_;
