@@ -23,6 +23,8 @@ void JoinSplitOptions::validate() const {
   in("split_min_gap", split_min_gap, 0, 1, false);
   in("split_max_occluded", split_max_occluded, 0, 1, false);
   in("split_min_departure", split_min_departure, 0, 1, false);
+  in("overlap_frames", overlap_frames, 0, 10000, false);
+  in("overlap_share", overlap_share, 0, 1, true);
   if (split_min_departure > 0.f && split_min_gap <= 0.f) {
     throw std::invalid_argument(
         "JoinSplitOptions.split_min_departure needs split_min_gap > 0: parts are followed from "
@@ -64,6 +66,29 @@ std::vector<std::pair<std::int32_t, std::int32_t>> RigidPartJoin::update(
 
 void RigidPartJoin::forget(std::int32_t id) {
   std::erase_if(pairs_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
+}
+
+OverlapJoin::OverlapJoin(const JoinSplitOptions& options) : options_((options.validate(), options)) {}
+
+std::vector<std::pair<std::int32_t, std::int32_t>> OverlapJoin::update(
+    std::span<const OverlapCandidate> objects, const std::function<float(std::int32_t, std::int32_t)>& overlap) {
+  std::vector<std::pair<std::int32_t, std::int32_t>> joins;
+  for (auto a = objects.begin(); a != objects.end(); ++a) {
+    for (auto b = std::next(a); b != objects.end(); ++b) {
+      const auto key = std::make_pair(a->id, b->id);
+      if (!a->seen || !b->seen || overlap(a->id, b->id) < options_.overlap_share) {
+        frames_.erase(key);
+        continue;
+      }
+      if (++frames_[key] < options_.overlap_frames) continue;
+      joins.emplace_back(a->id, b->id);  // the lower id, the one known longest, is kept
+    }
+  }
+  return joins;
+}
+
+void OverlapJoin::forget(std::int32_t id) {
+  std::erase_if(frames_, [id](const auto& entry) { return entry.first.first == id || entry.first.second == id; });
 }
 
 PartSplit::PartSplit(const JoinSplitOptions& options, std::size_t min_object_points)

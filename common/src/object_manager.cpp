@@ -78,6 +78,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
       retired_(options.reidentify_similarity),
       joiner_(options.join_split),
       splitter_(options.join_split, options.min_object_points),
+      overlap_joiner_(options.join_split),
       confirmation_(options.discovery),
       carry_(options.carry),
       propagation_(options.propagation_radius, options.propagation_min_seed_share),
@@ -158,7 +159,8 @@ void ObjectManager::take_estimates(const std::map<std::int32_t, ObjectEstimate>&
     object.held = it->second.held;
     object.stale = false;
   }
-  if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f) {
+  if (options_.carry.frames > 0 || options_.companion.contact_distance > 0.f ||
+      options_.join_split.overlap_frames > 0) {
     // The bounding spheres of the touch tests' prefilter.
     contact_.new_frame();
     for (const auto& [id, object] : objects_) {
@@ -260,6 +262,7 @@ void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
 
 void ObjectManager::join_and_split(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point) {
   if (options_.join_split.join_frames > 0) join_rigid_parts();
+  if (options_.join_split.overlap_frames > 0) join_overlapping();
   if (options_.join_split.split_frames > 0) split_separated_parts(scene, cluster_of_point);
   if (discovery_ && options_.discovery.confirm_frames > 0) confirm_discovery(scene);
 }
@@ -560,6 +563,7 @@ void ObjectManager::forget(std::int32_t id) {
   tracked_.erase(id);
   confirmation_.forget(id);  // its siblings' watches
   joiner_.forget(id);        // its rigid-part pairs
+  overlap_joiner_.forget(id);
 }
 
 OcclusionTest& ObjectManager::scene_occlusion(const ColoredCloud& scene) {
@@ -623,6 +627,20 @@ void ObjectManager::join_rigid_parts() {
     return contact_.models_touch(placed(a), placed(b), distance);
   };
   for (const auto& [kept, joined] : joiner_.update(join_candidates_, touch)) {
+    if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
+  }
+}
+
+void ObjectManager::join_overlapping() {
+  overlap_candidates_.clear();
+  for (const auto& [id, object] : objects_) {
+    overlap_candidates_.push_back({id, !object.stale && !object.held && object.carried_by == 0});
+  }
+  const float distance = options_.join_split.join_contact_distance;
+  const auto overlap = [&](std::int32_t a, std::int32_t b) {
+    return contact_.overlap_share(placed(a), placed(b), distance);
+  };
+  for (const auto& [kept, joined] : overlap_joiner_.update(overlap_candidates_, overlap)) {
     if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
   }
 }

@@ -82,6 +82,47 @@ TEST(JoinSplitOptions, RejectsOutOfRangeValues) {
   o.split_min_departure = 0.01f;  // parts are followed within split_min_gap
   EXPECT_THROW(o.validate(), std::invalid_argument);
   EXPECT_THROW(RigidPartJoin{o}, std::invalid_argument);
+  o = JoinSplitOptions{};
+  o.overlap_share = 0.f;
+  EXPECT_THROW(OverlapJoin{o}, std::invalid_argument);
+}
+
+JoinSplitOptions overlap_options() {
+  JoinSplitOptions o;
+  o.overlap_frames = 5;
+  return o;
+}
+
+TEST(OverlapJoin, ObjectsSharingTheirSpaceForOverlapFramesAreOneAndTheLowerIdStays) {
+  OverlapJoin joiner(overlap_options());
+  const std::vector<OverlapCandidate> objects{{3, true}, {8, true}, {9, true}};
+  const auto overlap = [](std::int32_t a, std::int32_t b) { return a == 3 && b == 8 ? 0.7f : 0.1f; };
+  for (int frame = 0; frame < 5; ++frame) {
+    const auto joins = joiner.update(objects, overlap);
+    if (frame < 4) {
+      EXPECT_TRUE(joins.empty()) << "frame " << frame;
+    } else {
+      ASSERT_EQ(joins.size(), 1u);
+      EXPECT_EQ(joins[0], std::make_pair(3, 8));
+    }
+  }
+}
+
+TEST(OverlapJoin, AFrameApartHeldOrBelowTheShareStartsTheCountOver) {
+  OverlapJoin joiner(overlap_options());
+  const auto half = [](std::int32_t, std::int32_t) { return 0.5f; };
+  const auto less = [](std::int32_t, std::int32_t) { return 0.49f; };
+  const std::vector<OverlapCandidate> seen{{1, true}, {2, true}};
+  const std::vector<OverlapCandidate> one_held{{1, true}, {2, false}};
+  for (int frame = 0; frame < 4; ++frame) EXPECT_TRUE(joiner.update(seen, half).empty());
+  EXPECT_TRUE(joiner.update(one_held, half).empty());  // a held estimate says nothing of where it is
+  EXPECT_EQ(joiner.watched_pairs(), 0u);
+  for (int frame = 0; frame < 4; ++frame) EXPECT_TRUE(joiner.update(seen, half).empty());
+  EXPECT_TRUE(joiner.update(seen, less).empty());
+  for (int frame = 0; frame < 4; ++frame) EXPECT_TRUE(joiner.update(seen, half).empty());
+  EXPECT_EQ(joiner.update(seen, half).size(), 1u);
+  joiner.forget(2);
+  EXPECT_EQ(joiner.watched_pairs(), 0u);
 }
 
 JoinSplitOptions split_options() {

@@ -60,5 +60,26 @@ TEST(ModelContact, BoundingSpheresDecideFarPairsWithoutTheModels) {
   EXPECT_FALSE(contact.touching(a, b, 0.01f));
 }
 
+TEST(ModelContact, OverlapShareIsTheSmallerModelsShareNearTheOther) {
+  const TwoCubes cubes;
+  ModelContact contact;
+  PlacedModel copy = cubes.first();
+  copy.id = 2;
+  EXPECT_FLOAT_EQ(contact.overlap_share(cubes.first(), copy, 0.01f), 1.f);  // one space
+  // Touching faces: the facing face (one of six) and the rims of the four beside it.
+  const float touching = contact.overlap_share(cubes.first(), cubes.at_gap(0.004f), 0.01f);
+  EXPECT_GE(touching, 1.f / 6.f);
+  EXPECT_LT(touching, 0.3f);
+  EXPECT_FLOAT_EQ(contact.overlap_share(cubes.first(), cubes.at_gap(0.3f), 0.01f), 0.f);
+  // A model of one face (the cube's first 100 points, its -x face) inside the whole cube: all of the smaller.
+  ObjectModel face = cubes.model;
+  face.cloud.positions.resize(100);
+  face.cloud.colors.resize(100);
+  face.features.resize(100);
+  const PlacedModel part{3, &face, cubes.first().pose, TwoCubes::kRadius};
+  EXPECT_FLOAT_EQ(contact.overlap_share(cubes.first(), part, 0.01f), 1.f);
+  EXPECT_FLOAT_EQ(contact.overlap_share(part, cubes.first(), 0.01f), 1.f);
+}
+
 }  // namespace
 }  // namespace mfot

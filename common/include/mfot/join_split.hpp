@@ -8,6 +8,9 @@
 //      join_translation and join_rotation_deg the watch counts one more frame, else it starts over here;
 //   2. after join_frames frames, if the first moved join_min_motion or turned join_min_turn_deg since the watch
 //      began and their models touch (join_contact_distance), the second joins the first.
+// OverlapJoin, per frame, for each pair of objects seen this frame (an estimate, not held or carried):
+//   1. the share of the smaller model within join_contact_distance of the other's, at their poses (the caller's);
+//   2. overlap_share or more for overlap_frames frames in a row: the higher id joins the lower.
 // PartSplit, per object and frame:
 //   1. its segmented points by Euclidean cluster: the parts holding at least min_object_points and split_min_share
 //      of them; two or more, the largest two split_min_gap apart and at most split_max_occluded of its model hidden,
@@ -53,6 +56,12 @@ struct JoinSplitOptions {
   float split_min_gap = 0.03f;
   float split_max_occluded = 0.1f;
   float split_min_departure = 0.f;
+  // OverlapJoin: two seen objects of which at least overlap_share ((0, 1]) of the smaller model lies within
+  // join_contact_distance of the other's model, at their poses, for overlap_frames frames in a row (0 = off,
+  // [0, 10000]), are one object (two rigid bodies cannot share their space): the higher id joins the lower (an id
+  // re-identified keeps its number, so the lower is the one consumers knew first).
+  int overlap_frames = 0;
+  float overlap_share = 0.5f;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -86,6 +95,34 @@ class RigidPartJoin {
   };
   JoinSplitOptions options_;
   std::map<std::pair<std::int32_t, std::int32_t>, PairWatch> pairs_;
+};
+
+// One object of a frame for OverlapJoin.
+struct OverlapCandidate {
+  std::int32_t id = 0;
+  bool seen = false;  // an estimate this frame, not held or carried: its pose is where it is
+};
+
+// Two objects that occupy one space (OverlapJoin in the header comment): an object born again from the points of one
+// still tracked elsewhere (its estimate slipped while it was hidden and came back), or a part of an object that the
+// discovery found apart and whose model covers the same surface.
+class OverlapJoin {
+ public:
+  explicit OverlapJoin(const JoinSplitOptions& options);
+  OverlapJoin(const OverlapJoin&) = delete;
+  OverlapJoin& operator=(const OverlapJoin&) = delete;
+
+  // objects: this frame's, ascending ids. overlap(a, b): the share of the smaller of a's and b's models within
+  // join_contact_distance of the other's, at this frame's poses. Returns (kept, joined) pairs in order of the pairs'
+  // ids; an id may occur in several (the caller skips pairs of which one is gone).
+  std::vector<std::pair<std::int32_t, std::int32_t>> update(
+      std::span<const OverlapCandidate> objects, const std::function<float(std::int32_t, std::int32_t)>& overlap);
+  void forget(std::int32_t id);  // its pairs' counts
+  std::size_t watched_pairs() const { return frames_.size(); }
+
+ private:
+  JoinSplitOptions options_;
+  std::map<std::pair<std::int32_t, std::int32_t>, int> frames_;  // frames in a row the pair overlapped
 };
 
 // One part of an object seen in parts, followed from frame to frame: its centroid (camera frame) last frame, and

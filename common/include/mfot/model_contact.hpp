@@ -38,6 +38,9 @@ class ModelContact {
   bool models_touch(const PlacedModel& a, const PlacedModel& b, float distance);
   // models_touch after steps 1 and 2; the pair's order does not matter (ids differ).
   bool touching(const PlacedModel& a, const PlacedModel& b, float distance);
+  // The share ([0, 1]) of the smaller model's points (the first's when equal) within distance (metres, > 0) of the
+  // other model's, both at their poses; 0 when their bounding spheres (radius + distance) do not meet. Not memoised.
+  float overlap_share(const PlacedModel& a, const PlacedModel& b, float distance);
   // Forgets the memo: poses and models change between frames.
   void new_frame() { memo_.clear(); }
 

@@ -190,7 +190,8 @@ struct ObjectManagerFrame {
 //      of the remembered model's points; with reidentify_unseen_radius_ratio > 0, a new object that matches
 //      no retired or carried one is matched so against the live objects not seen this frame (held, or
 //      lacking support): the one it matches is retired and its id taken back at once;
-//   7. join objects born together that moved as one rigid body (RigidPartJoin), split objects whose parts
+//   7. join objects born together that moved as one rigid body (RigidPartJoin) and seen objects that occupy one
+//      space (OverlapJoin), split objects whose parts
 //      moved apart (PartSplit; both join_split.hpp), and, over the first confirm_frames frames of the objects born
 //      from one cluster, discover their points again together: once that disagreed with them in confirm_votes
 //      frames, its parts become the objects, and two of them that it never told apart are one
@@ -282,6 +283,8 @@ class ObjectManager {
   void refit_parts(const ColoredCloud& scene);
   // Step 7: siblings that moved as one rigid body join (RigidPartJoin).
   void join_rigid_parts();
+  // Step 7: objects that occupy one space are one (OverlapJoin).
+  void join_overlapping();
   // An object for the contact test (ModelContact): its model at this frame's pose, its bounding radius.
   PlacedModel placed(std::int32_t id) const;
   // Step 1's touch test of carrying and companions (ModelContact::touching, memoised per frame).
@@ -343,8 +346,10 @@ class ObjectManager {
   std::int64_t frames_ = 0;
   std::uint64_t next_birth_ = 1;
   std::uint64_t current_birth_ = 0;
-  RigidPartJoin joiner_;                // step 7
-  PartSplit splitter_;                  // step 7
+  RigidPartJoin joiner_;        // step 7
+  PartSplit splitter_;          // step 7
+  OverlapJoin overlap_joiner_;  // step 7
+  std::vector<OverlapCandidate> overlap_candidates_;
   DiscoveryConfirmation confirmation_;  // step 7
   std::vector<JoinCandidate> join_candidates_;
   bool occlusion_scene_set_ = false;

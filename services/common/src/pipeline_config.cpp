@@ -45,6 +45,7 @@ constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less
 constexpr int kDiscoveryConfirmFrames = 15;          // the discovery is confirmed over an object's first frames
 constexpr float kPartBoundaryRadius = 0.03f;         // points this near another discovered part may move to it
 constexpr int kJoinFrames = 15;                      // frames objects born together move as one before they join
+constexpr int kOverlapJoinFrames = 5;                // frames two objects share one space before they are one
 constexpr int kSplitFrames = 5;                      // frames an object lies in parts before it splits
 constexpr int kCarryFrames = 10;                     // frames a hidden object moved with its carrier before
 constexpr float kCarrySeenThroughShare = 0.2f;       // a hidden object's held place seen through: gripped away
@@ -199,6 +200,7 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   auto& js = c.manager.join_split;
   js.join_frames = kJoinFrames;
   js.split_frames = kSplitFrames;
+  js.overlap_frames = kOverlapJoinFrames;
   js.split_min_departure = kSplitMinDeparture;
   c.manager.carry.frames = kCarryFrames;
   c.manager.carry.seen_through_share = kCarrySeenThroughShare;
