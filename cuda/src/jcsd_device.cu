@@ -575,7 +575,7 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   }
   const auto [stride_y, stride_z] = s.strides;
   const std::size_t plane = static_cast<std::size_t>(stride_z) * dims[2];
-  if (static_cast<std::size_t>(plane_bytes(static_cast<int>(plane))) >= std::size_t{1} << 31) {
+  if (plane * kCornerBytes >= std::size_t{1} << 31) {
     throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
   }
   s.stride_y = stride_y;
@@ -586,7 +586,7 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   const float largest = *std::max_element(values, values + corners * kBins);
   int exponent = 0;
   if (std::isfinite(largest) && largest > 0.f) std::frexp(largest, &exponent);
-  s.grid_scale = std::ldexp(1.f, kScaleExponent - exponent);
+  s.grid_scale = std::ldexp(1.f, std::clamp(kScaleExponent - exponent, -126, 126));  // scale and 1 / scale finite
   // The planes are expanded once here, into global memory; the kernel copies them into shared
   // memory when they fit there and reads them through the read-only cache otherwise.
   const std::size_t words = static_cast<std::size_t>(plane_words(s.plane));
