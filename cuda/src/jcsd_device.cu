@@ -1,17 +1,23 @@
 // CUDA JCSD hypothesis evaluation, thesis 3.3, equations 3.18 to 3.20 (the GPU side; the host
 // side packs the data in cuda_jcsd_likelihood.cpp). Steps:
 //  1. upload_grid: the model's J (8 floats per corner) goes to the device through pinned memory.
-//     The kernel reads it as 8 planes, one per SMR bin, whose elements hold a corner's value and
-//     its x neighbour's (8 bytes), with padded strides (GridLayout): one point's three non-zero
-//     SMR bins (3.19) at the 8 corners of its cell are 12 loads. The planes are expanded once per
-//     upload, into global memory; each block copies them as they are into shared memory when they
-//     fit there (16-byte asynchronous copies, no per-block index arithmetic), larger grids are
-//     read through the read-only cache.
+//     The kernel reads it as 16-bit floats (J times a power of two, so that no value overflows
+//     and none that matters is subnormal) in planes with padded strides (GridLayout): 6 hue
+//     planes whose element holds hue bins b and (b + 1) % 6 of a corner and of its x neighbour
+//     (8 bytes), and 2 achromatic planes whose element holds one bin of a corner and of its x
+//     neighbour (4 bytes). One point's three non-zero SMR bins (3.19) at the 8 corners of its
+//     cell are 8 loads, 48 bytes. The planes are expanded once per upload, into global memory;
+//     each block copies them as they are into shared memory when they fit there (16-byte
+//     asynchronous copies, no per-block index arithmetic), larger grids are read through the
+//     read-only cache.
 //  2. evaluate: points (32 B) and particles (48 B, the inverse pose already in grid units) go to
 //     the device in one asynchronous copy from pinned memory, on this object's stream.
 //  3. the scoring kernel: one resident block of 512 threads per multiprocessor takes work items
 //     (a tile of 16 particles, a split of the points) in turn. The 16 lanes of each half warp
 //     hold the tile's particles and read the same point, 32 points per pass of the block.
+//     3.19 is evaluated in 16-bit arithmetic for a corner and its x neighbour at once, the
+//     interpolation (3.18) and the sums (3.20) in float: every term is non-negative, so the
+//     scores differ from the CPU's by a bounded relative amount (kCudaJcsdRelativeError).
 //     Shared memory serves 8-byte loads per half warp, and since a filter's particles lie close
 //     together the half warp looks up the same or adjacent cells, which the padded strides put
 //     on distinct banks: broadcasts without bank conflicts in the common case. Each thread keeps
@@ -21,10 +27,12 @@
 //     order. No floating-point atomics: scores are bit-identical from call to call. Splits are
 //     chosen per call so that the items spread evenly over the multiprocessors.
 
+#include <cuda_fp16.h>
 #include <cuda_pipeline.h>
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -42,10 +50,19 @@ constexpr int kWarpSize = 32;
 constexpr int kThreadsPerBlock = 512;
 constexpr int kWarpsPerBlock = kThreadsPerBlock / kWarpSize;
 constexpr int kBins = 8;
-// Planes: bins 0 to 5, bin 0 again (so that the plane after hue bin b always holds bin
-// (b + 1) % 6, 3.19), then bins 6 and 7.
-constexpr int kPlanes = 9;
-using PlaneElement = float2;  // one bin of a corner and of its x neighbour
+// Planes of 16-bit floats (J scaled by GridLayout::scale): 6 hue planes, whose element for hue
+// bin b holds bins b and (b + 1) % 6 (3.19) of a corner and of its x neighbour (8 bytes, one
+// load), then 2 achromatic planes (bins 6 and 7) whose element holds the bin of a corner and of
+// its x neighbour (4 bytes).
+constexpr int kHuePlanes = 6;
+constexpr int kGrayPlanes = 2;
+using HueElement = uint2;      // __half2 (b at x, x + 1), __half2 (b + 1 at x, x + 1)
+using GrayElement = unsigned;  // __half2 (g at x, x + 1)
+constexpr int kCornerBytes = kHuePlanes * sizeof(HueElement) + kGrayPlanes * sizeof(GrayElement);
+// The scaled grid's largest value is below 2^kScaleExponent: far from the 16-bit float's
+// largest finite value (65504) for the weighted sums of 3.19 (weights in [0, 1]), and with
+// subnormals only below 2^-24 of it.
+constexpr int kScaleExponent = 14;
 // Particles per tile: a half warp, whose lanes read one point (shared-memory loads of 8 bytes
 // are served per half warp).
 constexpr int kTile = 16;
@@ -63,10 +80,10 @@ void check(cudaError_t status, const char* what) {
   }
 }
 
-// Padded strides (y, z) of the planes, in corners. A plane element (a corner and its x
-// neighbour, 8 bytes) spans 2 of the 32 banks, so elements e and e' share banks exactly when
-// e = e' (mod 16). The strides put every corner and its 26 neighbours on different banks: lanes
-// whose particles put a point in adjacent cells read without conflicts.
+// Padded strides (y, z) of the planes, in corners. A hue element (8 bytes) spans 2 of the 32
+// banks, so elements e and e' share banks exactly when e = e' (mod 16); a gray element (4 bytes)
+// when e = e' (mod 32), implied. The strides put every corner and its 26 neighbours on different
+// banks: lanes whose particles put a point in adjacent cells read without conflicts.
 std::pair<int, int> padded_strides(const std::array<int, 3>& dims) {
   const auto conflict_free = [](int sy, int sz) {
     for (int k = -1; k <= 1; ++k) {
@@ -151,20 +168,24 @@ class PinnedBuffer {
   std::size_t capacity_ = 0;
 };
 
-// J as 8 planes of floats, bin b of corner (x, y, z) at b * plane + z * stride_z + y * stride_y + x
-// (zeros in the padding). In shared memory the reduction buffer follows the planes.
+// J as the planes above, element of corner (x, y, z) at z * stride_z + y * stride_y + x of its
+// plane (zeros in the padding): the 6 hue planes, then the 2 gray planes. In shared memory the
+// reduction buffer follows the planes.
 struct GridLayout {
-  const float4* raw;           // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
-  const PlaneElement* planes;  // the planes in global memory, expanded at upload_grid
+  const float4* raw;     // compact J: corner s (x fastest) at raw[2 s] (bins 0-3) and raw[2 s + 1] (bins 4-7)
+  const float4* planes;  // the planes in global memory, expanded at upload_grid
+  float scale;           // a power of two: the planes hold J * scale
+  float inv_scale;       // 1 / scale
   int dim_x, dim_y;
   int stride_y, stride_z;          // padded strides in corners
   int plane;                       // elements per plane: stride_z * dims[2]
-  int bytes_y, bytes_z, bytes_yz;  // the strides y, z and y + z in bytes
+  int bytes_y, bytes_z, bytes_yz;  // the strides y, z and y + z in bytes of a hue plane (half in a gray plane)
   unsigned max_x, max_y, max_z;    // largest valid cell index per axis (dims - 2)
 };
 
 struct Frame {
-  const float4* points;  // two float4 per point: (x, y, z, hue plane bits), (w_lo, w_hi, w_gray, gray plane bits)
+  const float4* points;  // two float4 per point: (x, y, z, hue plane bits), (w_lo, w_hi, w_gray as __half2 (w, w) bits,
+                         // gray plane bits)
   int num_points;
   const float4* particles;  // three float4 per particle: rows [A | b]
   int num_particles;
@@ -175,11 +196,13 @@ struct Frame {
   float* scores;
 };
 
-GridLayout make_layout(const float4* raw, const PlaneElement* planes, const std::array<int, 3>& dims, int stride_y,
-                       int stride_z, int plane) {
-  constexpr int element = sizeof(PlaneElement);
+GridLayout make_layout(const float4* raw, const float4* planes, float scale, const std::array<int, 3>& dims,
+                       int stride_y, int stride_z, int plane) {
+  constexpr int element = sizeof(HueElement);
   return {raw,
           planes,
+          scale,
+          1.f / scale,
           dims[0],
           dims[1],
           stride_y,
@@ -193,14 +216,23 @@ GridLayout make_layout(const float4* raw, const PlaneElement* planes, const std:
           static_cast<unsigned>(dims[2] - 2)};
 }
 
-// 16-byte words holding the kPlanes planes of `plane` elements (the last one zero-padded).
+// Bytes of the planes of `plane` elements each.
+__host__ __device__ constexpr long long plane_bytes(int plane) { return static_cast<long long>(plane) * kCornerBytes; }
+
+// 16-byte words holding the planes (the last one zero-padded).
 __host__ __device__ constexpr int plane_words(int plane) {
-  return static_cast<int>((kPlanes * static_cast<long long>(plane) * sizeof(PlaneElement) + sizeof(float4) - 1) /
-                          sizeof(float4));
+  return static_cast<int>((plane_bytes(plane) + sizeof(float4) - 1) / sizeof(float4));
+}
+
+// (a, b) as the bits of a __half2, rounded to nearest.
+__host__ __device__ inline unsigned half2_bits(float a, float b) {
+  const __half_raw lo = __float2half_rn(a);
+  const __half_raw hi = __float2half_rn(b);
+  return static_cast<unsigned>(lo.x) | (static_cast<unsigned>(hi.x) << 16);
 }
 
 // Writes padded corner c of the planes from the compact grid.
-__device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, PlaneElement* planes) {
+__device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, unsigned char* planes) {
   const int z = c / layout.stride_z;
   const int rest = c - z * layout.stride_z;
   const int y = rest / layout.stride_y;
@@ -218,28 +250,36 @@ __device__ __forceinline__ void expand_corner(const GridLayout& layout, int c, P
   }
   const float here[kBins] = {lo0.x, lo0.y, lo0.z, lo0.w, hi0.x, hi0.y, hi0.z, hi0.w};
   const float next[kBins] = {lo1.x, lo1.y, lo1.z, lo1.w, hi1.x, hi1.y, hi1.z, hi1.w};
+  const auto pack = [&](int bin) { return half2_bits(here[bin] * layout.scale, next[bin] * layout.scale); };
+  auto* hue = reinterpret_cast<HueElement*>(planes);
 #pragma unroll
-  for (int p = 0; p < kPlanes; ++p) {
-    const int b = p < 6 ? p : (p == 6 ? 0 : p - 1);
-    planes[p * layout.plane + c] = make_float2(here[b], next[b]);
-  }
+  for (int b = 0; b < kHuePlanes; ++b) hue[b * layout.plane + c] = make_uint2(pack(b), pack((b + 1) % kHuePlanes));
+  auto* gray = reinterpret_cast<GrayElement*>(hue + kHuePlanes * layout.plane);
+#pragma unroll
+  for (int g = 0; g < kGrayPlanes; ++g) gray[g * layout.plane + c] = pack(kHuePlanes + g);
 }
 
 // One thread per padded corner: the planes in global memory (once per upload_grid).
-__global__ void expand_planes_kernel(GridLayout layout, PlaneElement* planes) {
+__global__ void expand_planes_kernel(GridLayout layout, unsigned char* planes) {
   const int c = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
   if (c < layout.plane) expand_corner(layout, c, planes);
 }
 
 __device__ __forceinline__ float lerp(float a, float b, float t) { return fmaf(t, b - a, a); }
 
-template <bool kShared>
-__device__ __forceinline__ PlaneElement load(const PlaneElement* p) {
+template <bool kShared, class T>
+__device__ __forceinline__ T load(const char* p) {
   if constexpr (kShared) {
-    return *p;
+    return *reinterpret_cast<const T*>(p);
   } else {
-    return __ldg(p);
+    return __ldg(reinterpret_cast<const T*>(p));
   }
+}
+
+__device__ __forceinline__ __half2 as_half2(unsigned bits) {
+  __half2 h;
+  memcpy(&h, &bits, sizeof h);
+  return h;
 }
 
 // Bias that makes a float add round to an integer: for |u| < 2^22, u + kFloorBias rounded down
@@ -266,22 +306,24 @@ __device__ __forceinline__ float point_score(const char* planes, const GridLayou
   const unsigned iz = static_cast<unsigned>(__float_as_int(bz) - kFloorBiasBits);
   const bool inside = ix <= layout.max_x && iy <= layout.max_y && iz <= layout.max_z;
   const int cell = inside ? static_cast<int>(iz) * layout.bytes_z + static_cast<int>(iy) * layout.bytes_y +
-                                static_cast<int>(ix) * static_cast<int>(sizeof(PlaneElement))
+                                static_cast<int>(ix) * static_cast<int>(sizeof(HueElement))
                           : 0;
-  // The point's three non-zero bins (a.w, b.w hold their planes' byte offsets): hue_bin, the next
-  // hue bin (the next plane) and one achromatic bin.
-  const char* lo = planes + __float_as_int(a.w) + cell;
-  const char* hi = lo + layout.plane * static_cast<int>(sizeof(PlaneElement));
-  const char* gray = planes + __float_as_int(b.w) + cell;
+  // The point's three non-zero bins (a.w, b.w hold their planes' byte offsets): hue_bin and the
+  // next hue bin (one hue element), and one achromatic bin.
+  const char* hue = planes + __float_as_int(a.w) + cell;
+  const char* gray = planes + __float_as_int(b.w) + (cell >> 1);
   const float tx = ux - (bx - kFloorBias);
   // 3.19 at the corners x and x + 1 of one (y, z) edge of the cell, interpolated along x.
   const auto edge = [&](int offset) {
-    const float2 l = load<kShared>(reinterpret_cast<const PlaneElement*>(lo + offset));
-    const float2 h = load<kShared>(reinterpret_cast<const PlaneElement*>(hi + offset));
-    const float2 g = load<kShared>(reinterpret_cast<const PlaneElement*>(gray + offset));
-    const float d0 = fmaf(b.x, l.x, fmaf(b.y, h.x, b.z * g.x));
-    const float d1 = fmaf(b.x, l.y, fmaf(b.y, h.y, b.z * g.y));
-    return lerp(d0, d1, tx);
+    const uint2 lh = load<kShared, uint2>(hue + offset);
+    const __half2 g = as_half2(load<kShared, unsigned>(gray + (offset >> 1)));
+    // 3.19 in 16-bit arithmetic for both corners at once (b.x, b.y, b.z hold the weights as
+    // __half2 (w, w)): every term is non-negative, so each rounding stays relative.
+    __half2 t = __hmul2(as_half2(__float_as_uint(b.z)), g);
+    t = __hfma2(as_half2(__float_as_uint(b.y)), as_half2(lh.y), t);
+    t = __hfma2(as_half2(__float_as_uint(b.x)), as_half2(lh.x), t);
+    const float2 d = __half22float2(t);
+    return lerp(d.x, d.y, tx);
   };
   const float e00 = edge(0);
   const float e10 = edge(layout.bytes_y);
@@ -355,6 +397,7 @@ __global__ void __launch_bounds__(kThreadsPerBlock, 1) score_kernel(GridLayout l
       a = next_a;
       b = next_b;
     }
+    sum *= layout.inv_scale;  // exact: a power of two
     const int next_item = item + static_cast<int>(gridDim.x);
     if (next_item < items) prefetch(next_item);
 
@@ -451,6 +494,7 @@ struct JcsdDevice::State {
   std::array<int, 3> dims{0, 0, 0};
   int corners = 0;                            // 0: no valid grid on the device
   int stride_y = 0, stride_z = 0, plane = 0;  // the planes' layout (GridLayout)
+  float grid_scale = 1.f;                     // GridLayout::scale of the uploaded grid
   std::array<int, 3> strides_for{0, 0, 0};    // dims whose strides are cached
   std::pair<int, int> strides{0, 0};
   int max_shared_bytes = 0;                             // dynamic shared memory a block may opt in to
@@ -531,25 +575,32 @@ void JcsdDevice::upload_grid(const std::array<int, 3>& dims) {
   }
   const auto [stride_y, stride_z] = s.strides;
   const std::size_t plane = static_cast<std::size_t>(stride_z) * dims[2];
-  if (plane * kPlanes * sizeof(PlaneElement) >= std::size_t{1} << 31) {
+  if (plane * kCornerBytes >= std::size_t{1} << 31) {
     throw std::runtime_error("JcsdDevice::upload_grid: grid too large");
   }
   s.stride_y = stride_y;
   s.stride_z = stride_z;
   s.plane = static_cast<int>(plane);
+  // The power of two that puts the grid's largest value in [2^(kScaleExponent - 1), 2^kScaleExponent).
+  const float* values = s.grid_host.as<float>();
+  const float largest = *std::max_element(values, values + corners * kBins);
+  int exponent = 0;
+  if (std::isfinite(largest) && largest > 0.f) std::frexp(largest, &exponent);
+  s.grid_scale = std::ldexp(1.f, std::clamp(kScaleExponent - exponent, -126, 126));  // scale and 1 / scale finite
   // The planes are expanded once here, into global memory; the kernel copies them into shared
   // memory when they fit there and reads them through the read-only cache otherwise.
   const std::size_t words = static_cast<std::size_t>(plane_words(s.plane));
   s.planes.reserve(words * sizeof(float4), s.stream, "cudaMalloc (grid planes)");
-  const GridLayout layout = make_layout(s.raw_grid.as<float4>(), nullptr, dims, stride_y, stride_z, s.plane);
+  const GridLayout layout =
+      make_layout(s.raw_grid.as<float4>(), nullptr, s.grid_scale, dims, stride_y, stride_z, s.plane);
   const int threads = 256;
   expand_planes_kernel<<<(s.plane + threads - 1) / threads, threads, 0, s.stream>>>(layout,
-                                                                                    s.planes.as<PlaneElement>());
+                                                                                    s.planes.as<unsigned char>());
   check(cudaGetLastError(), "expand_planes_kernel launch");
-  const std::size_t tail = words * sizeof(float4) - kPlanes * plane * sizeof(PlaneElement);
+  const auto used = static_cast<std::size_t>(plane_bytes(s.plane));
+  const std::size_t tail = words * sizeof(float4) - used;
   if (tail != 0) {
-    check(cudaMemsetAsync(s.planes.as<unsigned char>() + kPlanes * plane * sizeof(PlaneElement), 0, tail, s.stream),
-          "cudaMemsetAsync (grid planes)");
+    check(cudaMemsetAsync(s.planes.as<unsigned char>() + used, 0, tail, s.stream), "cudaMemsetAsync (grid planes)");
   }
   const std::size_t shared_bytes = words * sizeof(float4) + kReduceBytes;
   int blocks_per_sm = 0;
@@ -626,16 +677,22 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
     }
   }
 
-  // The kernel reads each point's bins as byte offsets of their planes (kPlanes).
-  const int plane_bytes = s.plane * static_cast<int>(sizeof(PlaneElement));
+  // The kernel reads each point's bins as byte offsets of their planes (the hue plane of hue_bin,
+  // the gray plane of gray_bin) and its weights as __half2 (w, w).
+  const int hue_plane = s.plane * static_cast<int>(sizeof(HueElement));
+  const int gray_plane = s.plane * static_cast<int>(sizeof(GrayElement));
   auto* records = s.frame_host.as<PointRecord>();
   for (std::size_t j = 0; j < points; ++j) {
     PointRecord& r = records[j];
     if (r.hue_bin < 0 || r.hue_bin > 5 || (r.gray_bin != 6 && r.gray_bin != 7)) {
       throw std::runtime_error("JcsdDevice::evaluate: point " + std::to_string(j) + " has a bin outside the SMR");
     }
-    r.hue_bin *= plane_bytes;
-    r.gray_bin = (r.gray_bin + 1) * plane_bytes;
+    r.hue_bin *= hue_plane;
+    r.gray_bin = kHuePlanes * hue_plane + (r.gray_bin - kHuePlanes) * gray_plane;
+    for (float* w : {&r.w_lo, &r.w_hi, &r.w_gray}) {
+      const unsigned bits = half2_bits(*w, *w);
+      std::memcpy(w, &bits, sizeof bits);
+    }
   }
 
   s.counters_zero = false;  // until this call's kernel has completed (it leaves them zero)
@@ -643,8 +700,8 @@ void JcsdDevice::evaluate(std::size_t points, std::size_t particles, float* scor
   check(cudaMemcpyAsync(s.frame.as<void>(), s.frame_host.as<void>(), frame_bytes, cudaMemcpyHostToDevice, s.stream),
         "cudaMemcpyAsync (frame)");
   const float4* device_points = s.frame.as<float4>();
-  const GridLayout layout =
-      make_layout(s.raw_grid.as<float4>(), s.planes.as<PlaneElement>(), s.dims, s.stride_y, s.stride_z, s.plane);
+  const GridLayout layout = make_layout(s.raw_grid.as<float4>(), s.planes.as<float4>(), s.grid_scale, s.dims,
+                                        s.stride_y, s.stride_z, s.plane);
   const Frame frame{device_points,
                     num_points,
                     device_points + 2 * points,

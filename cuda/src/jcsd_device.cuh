@@ -16,8 +16,9 @@ int device_count(std::string* why);
 // "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)"; throws on an invalid ordinal.
 std::string device_description(int device);
 
-// One hypothesis point as the kernel reads it: two 16-byte words. The host writes the bins;
-// evaluate() turns them into the byte offsets of the kernel's grid planes.
+// One hypothesis point as the kernel reads it: two 16-byte words. The host writes the bins and
+// the weights; evaluate() turns the bins into the byte offsets of the kernel's grid planes and
+// each weight w into the bits of a 16-bit float pair (w, w).
 struct PointRecord {
   float x, y, z;          // camera frame, metres
   std::int32_t hue_bin;   // SMR bin receiving w_lo; (hue_bin + 1) % 6 receives w_hi

@@ -69,7 +69,8 @@ TEST(LikelihoodFactory, AutoUsesTheGpuExactlyWhenOneIsAvailable) {
   JcsdLikelihood direct;
   const std::vector<float> expected = scores_of(direct, scene);
   const std::vector<float> got = scores_of(*choice.likelihood, scene);
-  for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(got[i], expected[i], 1e-4f * expected[i] + 1e-9f);
+  for (std::size_t i = 0; i < expected.size(); ++i)
+    EXPECT_NEAR(got[i], expected[i], kCudaJcsdRelativeError * expected[i] + 1e-9f);
 }
 
 TEST(LikelihoodFactory, UnusableCudaRequestFailsWithTheReason) {

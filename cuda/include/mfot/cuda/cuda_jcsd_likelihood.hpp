@@ -34,8 +34,8 @@ struct CudaJcsdTiming {
 
 // Scores particles against the model's JCSD grid on the GPU. Steps:
 //  1. set_model: build J on the CPU (Algorithm 3, build_jcsd_grid), copy it to pinned memory and
-//     upload it asynchronously; the kernel reads it as one padded plane per SMR bin
-//     (jcsd_device.cu), expanded into shared memory by each block when it fits.
+//     upload it asynchronously; the kernel reads it as padded planes of 16-bit floats
+//     (jcsd_device.cu), expanded into shared memory by each block when they fit.
 //  2. evaluate: pack the hypothesis points (position and sparse SMR, 32 B) and the particles
 //     (inverse pose in grid units, 48 B) into one pinned buffer, upload it, run the scoring
 //     kernel, download the scores; all on this object's own stream, then wait for it.
@@ -43,7 +43,8 @@ struct CudaJcsdTiming {
 // allocated on first use and grow only when a larger input arrives (no allocation per frame).
 // Instances, and processes, share a GPU without interfering. Every CUDA failure (no device, out
 // of memory, failed launch) throws std::runtime_error with the CUDA error text, so the caller
-// can fall back to the CPU (FallbackLikelihood). Scores match JcsdLikelihood to float rounding.
+// can fall back to the CPU (FallbackLikelihood). Scores match JcsdLikelihood, the reference, within
+// kCudaJcsdRelativeError (likelihood_factory.hpp) relative.
 class CudaJcsdLikelihood final : public Likelihood {
  public:
   explicit CudaJcsdLikelihood(const CudaJcsdLikelihoodOptions& options = {});

@@ -30,6 +30,12 @@ struct LikelihoodChoice {
   std::string note;                        // why this backend was chosen (e.g. the CUDA error text on fallback)
 };
 
+// Largest relative difference of a CUDA JCSD score from the CPU JCSD's (the reference): the GPU
+// reads J as 16-bit floats and weights each corner's three bins (3.19) in 16-bit arithmetic,
+// every rounding relative with unit 2^-11 on non-negative terms; at most five roundings per term
+// bound the error by (1 + 2^-11)^5 - 1 < 2.5e-3, float rounding of the sums aside.
+inline constexpr float kCudaJcsdRelativeError = 2.5e-3f;
+
 // kAuto: CUDA when built with it and a device is present, else CPU JCSD (the reason in `note`).
 // kCuda throws std::runtime_error naming the reason when no device can be used.
 LikelihoodChoice make_likelihood(const LikelihoodOptions& options);
