@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
-#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -12,7 +10,6 @@
 #include "mfot/model_parts.hpp"
 #include "mfot/option_range.hpp"
 #include "mfot/particle_filter.hpp"
-#include "mfot/preprocessing.hpp"
 
 namespace mfot {
 
@@ -626,9 +623,7 @@ void ObjectManager::join_rigid_parts() {
   const auto touch = [&](std::int32_t a, std::int32_t b) {
     return contact_.models_touch(placed(a), placed(b), distance);
   };
-  for (const auto& [kept, joined] : joiner_.update(join_candidates_, touch)) {
-    if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
-  }
+  join_pairs(joiner_.update(join_candidates_, touch));
 }
 
 void ObjectManager::join_overlapping() {
@@ -640,7 +635,11 @@ void ObjectManager::join_overlapping() {
   const auto overlap = [&](std::int32_t a, std::int32_t b) {
     return contact_.overlap_share(placed(a), placed(b), distance);
   };
-  for (const auto& [kept, joined] : overlap_joiner_.update(overlap_candidates_, overlap)) {
+  join_pairs(overlap_joiner_.update(overlap_candidates_, overlap));
+}
+
+void ObjectManager::join_pairs(std::span<const std::pair<std::int32_t, std::int32_t>> joins) {
+  for (const auto& [kept, joined] : joins) {
     if (objects_.count(kept) && objects_.count(joined)) join(kept, joined);
   }
 }

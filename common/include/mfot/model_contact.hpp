@@ -45,6 +45,11 @@ class ModelContact {
   void new_frame() { memo_.clear(); }
 
  private:
+  // Step 2: whether the two bounding spheres, grown by distance, meet.
+  static bool spheres_meet(const PlacedModel& a, const PlacedModel& b, float distance);
+  // hash_ holds the model's points at its pose (camera frame), cells of distance.
+  void hash_placed(const PlacedModel& placed, float distance);
+
   SpatialHash hash_{0.01f};
   std::vector<Eigen::Vector3f> points_;
   std::map<std::tuple<std::int32_t, std::int32_t, float>, bool> memo_;  // (lower id, higher id, distance)

@@ -11,7 +11,6 @@
 #include <optional>
 #include <set>
 #include <span>
-#include <tuple>
 #include <vector>
 
 #include "mfot/carry_monitor.hpp"
@@ -30,7 +29,6 @@
 #include "mfot/reidentification.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
-#include "mfot/spatial_hash.hpp"
 #include "mfot/tracked_object.hpp"
 #include "mfot/types.hpp"
 
@@ -289,6 +287,8 @@ class ObjectManager {
   PlacedModel placed(std::int32_t id) const;
   // Step 1's touch test of carrying and companions (ModelContact::touching, memoised per frame).
   bool touching(std::int32_t a, std::int32_t b, float distance);
+  // Each (kept, joined) pair whose two objects are still live, in order (an earlier join may have taken one).
+  void join_pairs(std::span<const std::pair<std::int32_t, std::int32_t>> joins);
   // joined's model and points go to kept; joined is retired.
   void join(std::int32_t kept, std::int32_t joined);
   // Step 7: objects whose parts moved apart are split (PartSplit).
