@@ -24,6 +24,8 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include "mfot/object_discovery.hpp"
@@ -186,6 +188,16 @@ class LccpDiscovery final : public ObjectDiscovery {
 std::unique_ptr<ObjectDiscovery> make_object_discovery(const DiscoveryOptions& options) {
   if (options.method == DiscoveryMethod::kClusters) return nullptr;
   return std::make_unique<LccpDiscovery>(options);
+}
+
+std::vector<std::unique_ptr<ObjectDiscovery>> make_object_discoveries(const DiscoveryOptions& options, int threads) {
+  if (threads < 1 || threads > 64) {
+    throw std::invalid_argument("make_object_discoveries: threads must be in [1, 64], got " + std::to_string(threads));
+  }
+  std::vector<std::unique_ptr<ObjectDiscovery>> discoveries;
+  if (options.method == DiscoveryMethod::kClusters) return discoveries;
+  for (int t = 0; t < threads; ++t) discoveries.push_back(std::make_unique<LccpDiscovery>(options));
+  return discoveries;
 }
 
 }  // namespace mfot

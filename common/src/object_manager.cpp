@@ -63,10 +63,21 @@ void ObjectManagerOptions::validate() const {
   }
 }
 
+namespace {
+std::vector<std::unique_ptr<ObjectDiscovery>> one_or_none(std::unique_ptr<ObjectDiscovery> discovery) {
+  std::vector<std::unique_ptr<ObjectDiscovery>> discoveries;
+  if (discovery) discoveries.push_back(std::move(discovery));
+  return discoveries;
+}
+}  // namespace
+
 ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_ptr<ObjectDiscovery> discovery)
+    : ObjectManager(options, one_or_none(std::move(discovery))) {}
+
+ObjectManager::ObjectManager(const ObjectManagerOptions& options,
+                             std::vector<std::unique_ptr<ObjectDiscovery>> discoveries)
     : options_((options.validate(), options)),
-      discovery_(std::move(discovery)),
-      part_boundary_(options.discovery.boundary),
+      parts_(std::move(discoveries), options.discovery.boundary, options.min_object_points),
       segmenter_(options.segmentation),
       detector_(options.new_objects),
       support_(options.support),
@@ -245,7 +256,17 @@ void ObjectManager::index_clusters(std::span<const std::int32_t> cluster_of_poin
 
 void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
   if (frames_ == 0 && objects_.empty()) {  // the first frame: every cluster, nothing to propagate
-    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, unexplained_points(clusters_.cluster(c)));
+    // Nothing is labelled yet, so each cluster's parts are found from its own points: all side by side.
+    std::vector<std::vector<int>> free_points(clusters_.size());
+    for (std::size_t c = 0; c < clusters_.size(); ++c) free_points[c] = unexplained_points(clusters_.cluster(c));
+    std::vector<std::vector<std::vector<int>>> parts(clusters_.size());
+    if (parts_.enabled()) {
+      std::vector<std::vector<int>> split;  // the clusters large enough to split
+      for (const std::vector<int>& points : free_points)
+        split.push_back(points.size() >= 2 * options_.min_object_points ? points : std::vector<int>{});
+      parts_.find(scene, split, parts);
+    }
+    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, free_points[c], &parts[c]);
     return;
   }
   for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
@@ -261,7 +282,7 @@ void ObjectManager::join_and_split(const ColoredCloud& scene, std::span<const st
   if (options_.join_split.join_frames > 0) join_rigid_parts();
   if (options_.join_split.overlap_frames > 0) join_overlapping();
   if (options_.join_split.split_frames > 0) split_separated_parts(scene, cluster_of_point);
-  if (discovery_ && options_.discovery.confirm_frames > 0) confirm_discovery(scene);
+  if (parts_.enabled() && options_.discovery.confirm_frames > 0) confirm_discovery(scene);
 }
 
 std::vector<int> ObjectManager::unexplained_points(std::span<const int> cluster_points) const {
@@ -370,16 +391,21 @@ bool ObjectManager::take_points_carried(std::int32_t id, const ColoredCloud& sce
   return true;
 }
 
-void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> free_points) {
+void ObjectManager::create_objects(const ColoredCloud& scene, std::span<const int> free_points,
+                                   const std::vector<std::vector<int>>* found_parts) {
   if (free_points.size() < options_.min_object_points) return;
   current_birth_ = next_birth_++;  // the objects of this cluster are siblings
-  if (!discovery_ || free_points.size() < 2 * options_.min_object_points) {
+  if (!parts_.enabled() || free_points.size() < 2 * options_.min_object_points) {
     create_object(scene, free_points);
     return;
   }
-  std::vector<std::vector<int>> parts;
-  discover_parts(scene, free_points, parts);
-  for (const auto& points : parts) create_object(scene, points);
+  std::vector<std::vector<std::vector<int>>> parts;
+  if (!found_parts) {
+    const std::vector<int> set(free_points.begin(), free_points.end());
+    parts_.find(scene, std::span(&set, 1), parts);
+    found_parts = &parts[0];
+  }
+  for (const auto& points : *found_parts) create_object(scene, points);
 }
 
 void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int> free_points) {
@@ -416,7 +442,7 @@ void ObjectManager::create_object(const ColoredCloud& scene, std::span<const int
   const Eigen::Vector3f born_at = object.pose.translation;
   TrackedObject& tracked = add_object(std::move(object), free_points, histogram, current_birth_);
   tracked.born_unknown = born_unknown;
-  if (discovery_ && options_.discovery.confirm_frames > 0) tracked.confirm_born_at = born_at;
+  if (parts_.enabled() && options_.discovery.confirm_frames > 0) tracked.confirm_born_at = born_at;
 }
 
 TrackedObject& ObjectManager::add_object(ManagedObject object, std::span<const int> points,
@@ -734,17 +760,29 @@ void ObjectManager::confirm_discovery(const ColoredCloud& scene) {
     const auto it = points_of.find(frame_.labels[i]);
     if (it != points_of.end()) it->second->push_back(static_cast<int>(i));
   }
-  std::vector<int> all;
-  std::vector<std::vector<int>> parts;
+  // Each group's parts depend on its own points only: all groups are split side by side, then matched in order.
+  std::vector<std::vector<int>> all;
+  std::vector<std::uint64_t> births;
   for (const auto& [birth, members] : groups) {
-    all.clear();
-    for (const auto& [id, points] : members) all.insert(all.end(), points.begin(), points.end());
-    if (all.size() < 2 * options_.min_object_points) continue;
-    discover_parts(scene, all, parts);
+    std::vector<int>& points_of_group = all.emplace_back();
+    for (const auto& [id, points] : members)
+      points_of_group.insert(points_of_group.end(), points.begin(), points.end());
+    if (points_of_group.size() < 2 * options_.min_object_points) {
+      all.pop_back();
+      continue;
+    }
+    births.push_back(birth);
+  }
+  std::vector<std::vector<std::vector<int>>> parts_of_group;
+  parts_.find(scene, all, parts_of_group);
+  for (std::size_t g = 0; g < births.size(); ++g) {
+    const std::uint64_t birth = births[g];
+    const std::map<std::int32_t, std::vector<int>>& members = groups.at(birth);
+    const std::vector<std::vector<int>>& parts = parts_of_group[g];
     const PartMatch match = DiscoveryConfirmation::match(parts, frame_.labels);
     confirmation_.watch_siblings(members, match);
     if (confirmation_.vote(birth, match.disagrees(static_cast<std::size_t>(o.min_part_points)))) {
-      adopt_parts(scene, birth, all, parts, match);
+      adopt_parts(scene, birth, all[g], parts, match);
     }
   }
 }
@@ -795,22 +833,6 @@ void ObjectManager::adopt_parts(const ColoredCloud& scene, std::uint64_t birth, 
     }
     rebuild_model(objects_.at(id), scene, own);
   }
-}
-
-void ObjectManager::discover_parts(const ColoredCloud& scene, std::span<const int> points,
-                                   std::vector<std::vector<int>>& parts) {
-  part_positions_.clear();
-  part_colors_.clear();
-  for (const int i : points) {
-    part_positions_.push_back(scene.positions[static_cast<std::size_t>(i)]);
-    part_colors_.push_back(scene.colors[static_cast<std::size_t>(i)]);
-  }
-  const int count = discovery_->split(part_positions_, part_colors_, part_of_point_);
-  part_boundary_.refine(part_positions_, part_colors_, part_of_point_);
-  parts.assign(static_cast<std::size_t>(std::max(count, 1)), {});
-  for (std::size_t k = 0; k < points.size(); ++k)
-    parts[static_cast<std::size_t>(part_of_point_[k])].push_back(points[k]);
-  std::erase_if(parts, [&](const std::vector<int>& part) { return part.size() < options_.min_object_points; });
 }
 
 void ObjectManager::rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points) {

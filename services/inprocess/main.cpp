@@ -48,7 +48,8 @@ int run(const Options& cli) {
   TrackerConfig tracker = load_tracker_config(root);
   if (!cli.backend.empty()) tracker.likelihood.backend = parse_likelihood_backend(cli.backend);
   const MergerConfig merger = load_merger_config(root);
-  InprocessPipeline pipeline({capture.encoding, load_preprocess_config(root).preprocessor, tracker, merger.manager});
+  InprocessPipeline pipeline(
+      {capture.encoding, load_preprocess_config(root).preprocessor, tracker, merger.manager, merger.threads});
 
   auto source = capture::make_source(capture, [] { return stop_requested(); });
   MalformedCounter malformed;  // undecodable frames for label images (none: the frames are our own)

@@ -87,5 +87,8 @@ class ObjectDiscovery {
 // (nothing to split), kLccp the supervoxel + LCCP discovery.
 __attribute__((visibility("default"))) std::unique_ptr<ObjectDiscovery> make_object_discovery(
     const DiscoveryOptions& options);
+// One discovery per thread (threads in [1, 64], else std::invalid_argument): empty for kClusters.
+__attribute__((visibility("default"))) std::vector<std::unique_ptr<ObjectDiscovery>> make_object_discoveries(
+    const DiscoveryOptions& options, int threads);
 
 }  // namespace mfot

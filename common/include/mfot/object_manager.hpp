@@ -25,6 +25,7 @@
 #include "mfot/model_updater.hpp"
 #include "mfot/object_discovery.hpp"
 #include "mfot/occlusion.hpp"
+#include "mfot/part_finder.hpp"
 #include "mfot/part_refit.hpp"
 #include "mfot/reidentification.hpp"
 #include "mfot/segmentation.hpp"
@@ -203,6 +204,9 @@ class ObjectManager {
   // discovery: splits born clusters into objects (nullptr: a cluster is one object, the thesis).
   explicit ObjectManager(const ObjectManagerOptions& options = {},
                          std::unique_ptr<ObjectDiscovery> discovery = nullptr);
+  // discoveries: one per thread that splits a frame's clusters side by side (PartFinder; none: a cluster is one
+  // object); the output is the same for every count.
+  ObjectManager(const ObjectManagerOptions& options, std::vector<std::unique_ptr<ObjectDiscovery>> discoveries);
   ObjectManager(const ObjectManager&) = delete;
   ObjectManager& operator=(const ObjectManager&) = delete;
 
@@ -264,8 +268,10 @@ class ObjectManager {
 
   // A cluster's points that no object explains (label 0): only they form new models.
   std::vector<int> unexplained_points(std::span<const int> cluster_points) const;
-  // A cluster's unexplained points, split by the discovery when there is one, become objects.
-  void create_objects(const ColoredCloud& scene, std::span<const int> free_points);
+  // A cluster's unexplained points, split by the discovery when there is one, become objects; found_parts: their
+  // parts when already found (PartFinder::find), else they are found here.
+  void create_objects(const ColoredCloud& scene, std::span<const int> free_points,
+                      const std::vector<std::vector<int>>* found_parts = nullptr);
   void create_object(const ColoredCloud& scene, std::span<const int> points);
   // A created object (create_object, or taking a remembered id back once grown) joins this frame: confidence 1,
   // created now, its points (scene indices) labelled, its record (tracked_) with its seeded model updater, its first
@@ -301,8 +307,6 @@ class ObjectManager {
   // join_rigid_parts puts them together again); an object that took no part keeps its points.
   void adopt_parts(const ColoredCloud& scene, std::uint64_t birth, std::span<const int> all,
                    const std::vector<std::vector<int>>& parts, const PartMatch& match);
-  // The discovery's parts of the points (scene indices) with at least min_object_points each.
-  void discover_parts(const ColoredCloud& scene, std::span<const int> points, std::vector<std::vector<int>>& parts);
   // The object's model becomes the points (scene indices) in its frame, thinned evenly.
   void rebuild_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> points);
   void forget(std::int32_t id);  // an object that is gone: its record, its published state and its pairs' watches
@@ -322,12 +326,9 @@ class ObjectManager {
                   const ColoredCloud& scene, std::span<const int> points, ManagedObject& object);
 
   ObjectManagerOptions options_;
-  std::unique_ptr<ObjectDiscovery> discovery_;
-  std::vector<Eigen::Vector3f> part_positions_;
+  PartFinder parts_;  // the discovery's parts of born clusters (at least min_object_points each)
   std::vector<Rgb8> part_colors_;
   std::vector<Eigen::Vector3f> part_points_;  // a part to append (with_part), model frame
-  std::vector<int> part_of_point_;
-  PartBoundaryRefiner part_boundary_;
   Segmenter segmenter_;
   NewObjectDetector detector_;
   SupportMonitor support_;

@@ -16,7 +16,7 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 InprocessPipeline::InprocessPipeline(const InprocessOptions& options)
     : options_(options),
       preprocessor_(options.preprocess),
-      manager_(options.manager, make_object_discovery(options.manager.discovery)),
+      manager_(options.manager, make_object_discoveries(options.manager.discovery, options.merger_threads)),
       claimed_margin_(options.tracker.step.claimed_margin()) {}
 
 const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_t seq, const std::string& source_name) {

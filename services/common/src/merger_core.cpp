@@ -33,6 +33,9 @@ void MergerCoreOptions::validate() const {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("resume: ") + e.what());
   }
+  if (threads < 1 || threads > 64) {
+    throw std::invalid_argument("MergerCoreOptions.threads must be in [1, 64], got " + std::to_string(threads));
+  }
   if (!(claimed_margin >= 0.f && claimed_margin <= 1.f)) {
     throw std::invalid_argument("MergerCoreOptions.claimed_margin must be in [0, 1] metres, got " +
                                 std::to_string(claimed_margin));
@@ -41,7 +44,8 @@ void MergerCoreOptions::validate() const {
 
 MergerCore::MergerCore(MergerCoreOptions options, MergerSink& sink, MalformedCounter& malformed,
                        std::function<Clock::time_point()> clock)
-    : manager_((options.validate(), options.manager), make_object_discovery(options.manager.discovery)),
+    : manager_((options.validate(), options.manager),
+               make_object_discoveries(options.manager.discovery, options.threads)),
       workers_(options.workers),
       frames_(options.frames),
       resumer_(options.resume, clock()),

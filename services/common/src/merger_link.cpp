@@ -19,6 +19,7 @@ MergerCoreOptions merger_core_options(const MergerConfig& config) {
   options.frames.expected_workers = config.expected_workers;
   options.frames.startup_timeout = std::chrono::milliseconds(config.startup_timeout_ms);
   options.claimed_margin = config.claimed_margin;
+  options.threads = config.threads;
   options.resume.listen = std::chrono::milliseconds(config.resume_listen_ms);
   options.resume.report_timeout = std::chrono::milliseconds(config.resume_timeout_ms);
   options.resume.max_model_points = config.manager.max_model_points;

@@ -18,9 +18,9 @@ Eigen::Vector3f vector3(const std::vector<double>& v) {
   return Eigen::Vector3f(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
 }
 
-// preprocess.threads 0: a quarter of the cores, at least 1 and at most 8. The group's other
-// processes (trackers, merger, capture) need the rest; results are the same for any count.
-int auto_preprocess_threads() {
+// preprocess.threads and merger.threads 0: a quarter of the cores, at least 1 and at most 8. The group's
+// other processes (trackers, capture) need the rest; results are the same for any count.
+int auto_threads() {
   const unsigned cores = std::thread::hardware_concurrency();
   return static_cast<int>(std::clamp(cores / 4, 1u, 8u));
 }
@@ -93,7 +93,7 @@ PreprocessConfig load_preprocess_config(const YAML::Node& root) {
   o.cluster_tolerance = read_option<float>(s, "cluster_tolerance");
   o.cluster_min_size = read_option<int>(s, "cluster_min_size");
   const int threads = read_option<int>(s, "threads");
-  o.threads = threads > 0 ? threads : auto_preprocess_threads();
+  o.threads = threads > 0 ? threads : auto_threads();
   config.queue_frames = read_option<int>(s, "queue_frames");
   s.finish();
   try {
@@ -189,6 +189,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.resume_timeout_ms = read_option<int>(s, "resume_timeout_ms");
   c.write_labels = read_option<bool>(s, "write_labels");
   c.fitting_distance = read_option<bool>(s, "fitting_distance");
+  const int threads = read_option<int>(s, "threads");
+  c.threads = threads > 0 ? threads : auto_threads();
   auto discovery = s.section("discovery");
   c.manager.discovery.method = DiscoveryMethod::kLccp;
   c.manager.discovery.seed_resolution = read_option<float>(discovery, "seed_resolution");

@@ -26,6 +26,7 @@ struct InprocessOptions {
   PreprocessorOptions preprocess;
   TrackerConfig tracker;
   ObjectManagerOptions manager;
+  int merger_threads = 1;  // MergerCoreOptions::threads
 };
 
 // Milliseconds of one frame's stages.

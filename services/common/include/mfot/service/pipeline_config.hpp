@@ -41,6 +41,7 @@ struct MergerConfig {
   int resume_timeout_ms = 500;  // ObjectResumerOptions::report_timeout
   bool write_labels = true;
   bool fitting_distance = true;
+  int threads = 1;  // merger.threads resolved (0: auto_threads())
   Pose world_from_camera;
   // MergerCoreOptions::claimed_margin: TrackingStepOptions::claimed_margin() of the tracker keys.
   float claimed_margin = 0.f;
