@@ -47,7 +47,8 @@ void FittingDistanceEvaluator::set_scene(std::span<const Eigen::Vector3f> scene_
   occlusion_.set_scene(scene_);
 }
 
-FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose) {
+FittingDistance FittingDistanceEvaluator::evaluate(std::span<const Eigen::Vector3f> model_points,
+                                                   const Pose& pose) const {
   Pose unit = pose;
   unit.rotation.normalize();
   const Eigen::Isometry3f to_camera = unit.isometry();

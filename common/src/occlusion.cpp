@@ -78,7 +78,7 @@ bool OcclusionTest::occluded_by(const Eigen::Vector3f& point, IsOccluder&& is_oc
   });
 }
 
-bool OcclusionTest::occluded(const Eigen::Vector3f& point) {
+bool OcclusionTest::occluded(const Eigen::Vector3f& point) const {
   return occluded_by(point, [](std::size_t) { return true; });
 }
 

@@ -54,8 +54,9 @@ class FittingDistanceEvaluator {
 
   void set_scene(std::span<const Eigen::Vector3f> scene_points);  // camera frame
   // model_points: object frame; pose: object -> camera. Without scene points every visible
-  // model point has no neighbour: the result's mean is then infinite.
-  FittingDistance evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose);
+  // model point has no neighbour: the result's mean is then infinite. Several objects may be
+  // evaluated side by side on one scene (reads only).
+  FittingDistance evaluate(std::span<const Eigen::Vector3f> model_points, const Pose& pose) const;
 
  private:
   FittingDistanceOptions options_;

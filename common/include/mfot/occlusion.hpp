@@ -60,7 +60,7 @@ class OcclusionTest {
   // The image the scene came from (nullopt: unknown, every ray counts as in view): a model point outside
   // it is never seen through, since the camera cannot see past where it does not look.
   void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
-  bool occluded(const Eigen::Vector3f& point);  // camera frame
+  bool occluded(const Eigen::Vector3f& point) const;  // camera frame; safe to call from several threads
   // The model (object frame) moved by pose (object -> camera) for the two questions below; an
   // object's tracking step sets it once and asks both.
   void set_model(std::span<const Eigen::Vector3f> model_points, const Pose& pose);

@@ -1,5 +1,8 @@
 #include "mfot/service/run_outputs.hpp"
 
+#include <algorithm>
+#include <stdexcept>
+#include <string>
 #include <thread>
 
 #include "mfot/service/frame_codec.hpp"
@@ -15,6 +18,10 @@ constexpr int kOutputNiceIncrement = 5;
 
 RunOutputs::RunOutputs(const std::string& dir, bool append, RunOutputsOptions options, MalformedCounter& malformed)
     : options_(options), malformed_(malformed), writer_(dir, append) {
+  if (options_.threads < 0 || options_.threads > 64) {
+    throw std::invalid_argument("RunOutputsOptions.threads must be in [0, 64], got " +
+                                std::to_string(options_.threads));
+  }
   if (options_.background) {
     queue_ = std::make_unique<BackgroundQueue>("run output writer", kOutputBacklog, kOutputNiceIncrement);
   }
@@ -51,20 +58,22 @@ void RunOutputs::write_frame(const Scene& scene, std::span<const std::int32_t> l
 void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector3f>& points,
                                const std::vector<std::int32_t>& labels, const std::vector<FittingInput>& fitting,
                                const std::optional<frame_t>& frame, const VoxelGrid& voxel_grid) {
-  // The fitting distances and the label image are independent: side by side they keep the output
-  // thread ahead of the frame rate (at ~100 frames/s one after the other did not). Made here so
-  // that its thread inherits the output thread's lower priority. Below 4 cores there is no core to
-  // spare for it (the 2-core dev machine's group is CPU-bound), nor in the caller's own thread.
+  // The label image and each object's fitting distance are independent: side by side they keep the
+  // output thread ahead of the frame rate (with 12 objects the distances one after the other took
+  // longer than a frame, so the backlog filled and held the merger up). Made here so that its threads
+  // inherit the output thread's lower priority (RunOutputsOptions::threads). Below 4 cores there is no
+  // core to spare (the 2-core dev machine's group is CPU-bound), nor in the caller's own thread.
   if (!output_split_) {
-    output_split_ = std::make_unique<ThreadPool>(queue_ && std::thread::hardware_concurrency() >= 4 ? 2 : 1);
+    const unsigned cores = std::thread::hardware_concurrency();
+    const int automatic = cores >= 4 ? static_cast<int>(std::clamp(cores / 4, 2u, 4u)) : 1;
+    output_split_ = std::make_unique<ThreadPool>(!queue_ ? 1 : options_.threads > 0 ? options_.threads : automatic);
   }
-  output_split_->run(2, [&](std::size_t part) {
-    if (part == 0) {
-      if (fitting.empty()) return;
-      fitting_.set_scene(points);
-      for (const auto& object : fitting) {
-        writer_.write_fitting(seq, object.id, fitting_.evaluate(object.model, object.pose).mean);
-      }
+  if (!fitting.empty()) fitting_.set_scene(points);
+  fitting_means_.assign(fitting.size(), 0.0);
+  output_split_->run(1 + fitting.size(), [&](std::size_t task) {
+    if (task > 0) {
+      const FittingInput& object = fitting[task - 1];
+      fitting_means_[task - 1] = fitting_.evaluate(object.model, object.pose).mean;
       return;
     }
     if (!frame) return;
@@ -76,6 +85,7 @@ void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector
       malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
     }
   });
+  for (std::size_t k = 0; k < fitting.size(); ++k) writer_.write_fitting(seq, fitting[k].id, fitting_means_[k]);
   writer_.flush_fitting();
 }
 

@@ -29,6 +29,9 @@ struct RunOutputsOptions {
   bool write_labels = true;      // labels/<frame>.png (merger.write_labels)
   bool fitting_distance = true;  // fitting.csv (merger.fitting_distance)
   bool background = false;       // fitting and labels on the output thread
+  // With background: threads that compute the label image and each object's fitting distance side by
+  // side, [0, 64]; 0 = a quarter of the cores, 2 to 4 (1 below 4 cores). The files are the same for any count.
+  int threads = 0;
 };
 
 class RunOutputs {
@@ -64,6 +67,7 @@ class RunOutputs {
   MalformedCounter& malformed_;
   RunWriter writer_;
   FittingDistanceEvaluator fitting_;          // output thread only
+  std::vector<double> fitting_means_;         // output thread only: this frame's, per FittingInput
   std::unique_ptr<ThreadPool> output_split_;  // output thread only: fitting beside the label image
   // Declared after what its jobs use, so it is destroyed (finishing them) first.
   std::unique_ptr<BackgroundQueue> queue_;
