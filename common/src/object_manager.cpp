@@ -77,7 +77,8 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options, std::unique_pt
 ObjectManager::ObjectManager(const ObjectManagerOptions& options,
                              std::vector<std::unique_ptr<ObjectDiscovery>> discoveries)
     : options_((options.validate(), options)),
-      parts_(std::move(discoveries), options.discovery.boundary, options.min_object_points),
+      pool_(std::max<int>(1, static_cast<int>(discoveries.size()))),
+      parts_(std::move(discoveries), options.discovery.boundary, options.min_object_points, pool_),
       segmenter_(options.segmentation),
       detector_(options.new_objects),
       support_(options.support),
@@ -184,7 +185,7 @@ void ObjectManager::segment(const ColoredCloud& scene) {
   for (const auto& [id, object] : objects_) {
     seg_objects_.push_back({id, object.model.cloud.positions, object.pose});
   }
-  segmenter_.segment(scene.positions, seg_objects_, segmentation_);
+  segmenter_.segment(scene.positions, seg_objects_, segmentation_, &pool_);
   frame_.labels = segmentation_.labels;
 }
 

@@ -7,8 +7,8 @@
 namespace mfot {
 
 PartFinder::PartFinder(std::vector<std::unique_ptr<ObjectDiscovery>> discoveries, const PartBoundaryOptions& boundary,
-                       std::size_t min_points)
-    : pool_(std::max(1, static_cast<int>(discoveries.size()))), min_points_(min_points) {
+                       std::size_t min_points, ThreadPool& pool)
+    : pool_(pool), min_points_(min_points) {
   if (min_points == 0) throw std::invalid_argument("PartFinder: min_points must be >= 1");
   for (auto& discovery : discoveries) {
     if (!discovery) throw std::invalid_argument("PartFinder: a discovery is null");

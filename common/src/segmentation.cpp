@@ -22,7 +22,7 @@ const SegmentationOptions& validated(const SegmentationOptions& options) {
 Segmenter::Segmenter(const SegmentationOptions& options) : options_(validated(options)), hash_(options.tau) {}
 
 void Segmenter::segment(std::span<const Eigen::Vector3f> scene_points, std::span<const SegmentationObject> objects,
-                        SegmentationResult& result) {
+                        SegmentationResult& result, ThreadPool* pool) {
   result.object_ids.clear();
   result.counts.assign(objects.size(), 0);
   std::size_t total_model_points = 0;
@@ -54,16 +54,26 @@ void Segmenter::segment(std::span<const Eigen::Vector3f> scene_points, std::span
   // object listed first.
   hash_.build(model_points_camera_);
 
+  // Each point's object index + 1 (0: none), then its id and the counts in one pass.
   result.labels.resize(scene_points.size());
-  for (std::size_t i = 0; i < scene_points.size(); ++i) {
-    const int nearest = hash_.nearest(scene_points[i], options_.tau);
-    if (nearest < 0) {
-      result.labels[i] = 0;
-      continue;
+  const auto label_range = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const int nearest = hash_.nearest(scene_points[i], options_.tau);
+      result.labels[i] = nearest < 0 ? 0 : owner_[static_cast<std::size_t>(nearest)] + 1;
     }
-    const std::int32_t k = owner_[static_cast<std::size_t>(nearest)];
-    result.labels[i] = result.object_ids[static_cast<std::size_t>(k)];
-    ++result.counts[static_cast<std::size_t>(k)];
+  };
+  const std::size_t n = scene_points.size();
+  const std::size_t ranges = pool != nullptr && pool->threads() > 1 ? 4 * static_cast<std::size_t>(pool->threads()) : 1;
+  if (ranges == 1) {
+    label_range(0, n);
+  } else {
+    pool->run(ranges, [&](std::size_t r) { label_range(r * n / ranges, (r + 1) * n / ranges); });
+  }
+  for (std::int32_t& label : result.labels) {
+    if (label == 0) continue;
+    const auto k = static_cast<std::size_t>(label - 1);
+    label = result.object_ids[k];
+    ++result.counts[k];
   }
 }
 

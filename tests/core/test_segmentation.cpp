@@ -145,6 +145,25 @@ TEST(Segmentation, MatchesBruteForceOverAllObjectsAtOnce) {
   EXPECT_LT(labelled, scene.size());
 }
 
+TEST(Segmentation, ThreadsGiveTheSameLabelsAndCounts) {
+  std::vector<std::vector<Eigen::Vector3f>> models = {random_points(300, 0.1f, 6), random_points(300, 0.1f, 7)};
+  const std::vector<Pose> poses = {make_pose({0.f, 0.f, 0.8f}, 0.f, {0.f, 0.f, 1.f}),
+                                   make_pose({0.04f, 0.f, 0.8f}, 0.7f, {0.f, 1.f, 0.f})};
+  std::vector<SegmentationObject> objects = {{3, models[0], poses[0]}, {8, models[1], poses[1]}};
+  auto scene = random_points(5001, 0.18f, 8);  // not a multiple of the ranges
+  for (auto& p : scene) p += Eigen::Vector3f(-0.02f, -0.02f, 0.74f);
+  Segmenter segmenter(SegmentationOptions{.tau = 0.01f});
+  SegmentationResult alone, side_by_side;
+  segmenter.segment(scene, objects, alone);
+  ThreadPool pool(3);
+  segmenter.segment(scene, objects, side_by_side, &pool);
+  EXPECT_EQ(side_by_side.labels, alone.labels);
+  EXPECT_EQ(side_by_side.counts, alone.counts);
+  EXPECT_EQ(side_by_side.object_ids, alone.object_ids);
+  EXPECT_GT(alone.counts[0], 0u);
+  EXPECT_GT(alone.counts[1], 0u);
+}
+
 TEST(Segmentation, SplitsTwoTouchingBoxes) {
   // Two 6 x 8 x 5 cm boxes side by side, in contact along their x faces, seen from 0.8 m.
   // Models: full surfaces sampled every 5 mm. Scene: their outer surfaces (the contact faces

@@ -63,8 +63,9 @@ Places three_places() {
 TEST(PartFinder, SetsSplitSideBySideGiveTheSamePartsForEveryThreadCount) {
   const Places places = three_places();
   std::vector<std::vector<std::vector<int>>> one, three, alone;
-  PartFinder single(make_object_discoveries(lccp_options(), 1), {}, 50);
-  PartFinder parallel(make_object_discoveries(lccp_options(), 3), {}, 50);
+  ThreadPool one_thread(1), three_threads(3);
+  PartFinder single(make_object_discoveries(lccp_options(), 1), {}, 50, one_thread);
+  PartFinder parallel(make_object_discoveries(lccp_options(), 3), {}, 50, three_threads);
   EXPECT_EQ(parallel.threads(), 3);
   single.find(places.scene, places.sets, one);
   parallel.find(places.scene, places.sets, three);
@@ -81,22 +82,23 @@ TEST(PartFinder, SetsSplitSideBySideGiveTheSamePartsForEveryThreadCount) {
 TEST(PartFinder, RefusesWhatItCannotRun) {
   const Places places = three_places();
   std::vector<std::vector<std::vector<int>>> parts;
-  PartFinder none({}, {}, 50);
+  ThreadPool pool(2);
+  PartFinder none({}, {}, 50, pool);
   EXPECT_FALSE(none.enabled());
   EXPECT_THROW(none.find(places.scene, places.sets, parts), std::logic_error);
   std::vector<std::unique_ptr<ObjectDiscovery>> with_null;
   with_null.push_back(nullptr);
-  EXPECT_THROW(PartFinder(std::move(with_null), {}, 50), std::invalid_argument);
-  EXPECT_THROW(PartFinder(make_object_discoveries(lccp_options(), 1), {}, 0), std::invalid_argument);
+  EXPECT_THROW(PartFinder(std::move(with_null), {}, 50, pool), std::invalid_argument);
+  EXPECT_THROW(PartFinder(make_object_discoveries(lccp_options(), 1), {}, 0, pool), std::invalid_argument);
   EXPECT_THROW(make_object_discoveries(lccp_options(), 0), std::invalid_argument);
   EXPECT_TRUE(make_object_discoveries(DiscoveryOptions{}, 4).empty());  // clusters: nothing to split
-  PartFinder finder(make_object_discoveries(lccp_options(), 2), {}, 50);
+  PartFinder finder(make_object_discoveries(lccp_options(), 2), {}, 50, pool);
   const std::vector<std::vector<int>> outside{{0, 1, static_cast<int>(places.scene.size())}};
   EXPECT_THROW(finder.find(places.scene, outside, parts), std::out_of_range);
 }
 
-// The merger's births (first frame) and confirmations (the frames after) with 1 and 3 threads: the same labels and
-// poses in every frame of procedural scenes with several clusters.
+// The merger's births (first frame), confirmations (the frames after) and segmentation with 1 and 3 threads: the same
+// labels and poses in every frame of procedural scenes with several clusters.
 TEST(PartFinder, ObjectManagerGivesTheSameObjectsForEveryThreadCount) {
   const YAML::Node config = service::merged_over_defaults(YAML::Node());
   const auto merger = service::load_merger_config(config);

@@ -326,6 +326,7 @@ class ObjectManager {
                   const ColoredCloud& scene, std::span<const int> points, ManagedObject& object);
 
   ObjectManagerOptions options_;
+  ThreadPool pool_;   // one thread per discovery (at least one): the parts of born clusters, the segmentation
   PartFinder parts_;  // the discovery's parts of born clusters (at least min_object_points each)
   std::vector<Rgb8> part_colors_;
   std::vector<Eigen::Vector3f> part_points_;  // a part to append (with_part), model frame

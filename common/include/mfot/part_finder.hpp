@@ -24,10 +24,10 @@ namespace mfot {
 
 class PartFinder {
  public:
-  // discoveries: one per thread, none null; empty = no discovery (enabled() is false, find() refuses).
-  // min_points: >= 1.
+  // discoveries: one per thread of pool (which runs them; it must outlive the finder), none null; empty = no
+  // discovery (enabled() is false, find() refuses). min_points: >= 1.
   PartFinder(std::vector<std::unique_ptr<ObjectDiscovery>> discoveries, const PartBoundaryOptions& boundary,
-             std::size_t min_points);
+             std::size_t min_points, ThreadPool& pool);
   PartFinder(const PartFinder&) = delete;
   PartFinder& operator=(const PartFinder&) = delete;
 
@@ -54,7 +54,7 @@ class PartFinder {
                 std::vector<std::vector<int>>& parts) const;
 
   std::vector<std::unique_ptr<Worker>> workers_;
-  ThreadPool pool_;
+  ThreadPool& pool_;
   std::size_t min_points_;
 };
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "mfot/spatial_hash.hpp"
+#include "mfot/thread_pool.hpp"
 #include "mfot/types.hpp"
 
 namespace mfot {
@@ -47,9 +48,10 @@ class Segmenter {
   const SegmentationOptions& options() const { return options_; }
 
   // Fills result (its buffers are reused). Throws std::invalid_argument for an id <= 0 or a
-  // repeated id.
+  // repeated id. With a pool, step 3 runs on ranges of scene points side by side (each point's label
+  // is its own): the result is the same for any thread count.
   void segment(std::span<const Eigen::Vector3f> scene_points, std::span<const SegmentationObject> objects,
-               SegmentationResult& result);
+               SegmentationResult& result, ThreadPool* pool = nullptr);
 
  private:
   SegmentationOptions options_;
