@@ -46,7 +46,7 @@ struct MergerCoreOptions {
   // this (metres, [0, 1]; the trackers' hypothesis margin plus their claim radius); 0 = none
   // (TrackingStepOptions::exclude_claimed_radius 0).
   float claimed_margin = 0.f;
-  // Threads that split a frame's born clusters into parts side by side ([1, 64]; ObjectManager's PartFinder):
+  // The ObjectManager's threads ([1, 64]): the segmentation and the parts of a frame's born clusters side by side;
   // the output is the same for every count.
   int threads = 1;
 
