@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -202,6 +203,56 @@ TEST(SpatialHash, TiesGoToLowerIndex) {
   const std::vector<Eigen::Vector3f> reordered = {points[3], points[2], points[1], points[0]};
   hash.build(reordered);
   EXPECT_EQ(hash.nearest(Eigen::Vector3f::Zero(), 0.1f), 0);
+}
+
+// Points on a lattice whose spacing divides the cell (so many lie on cell faces, and many are tied) and
+// queries on the lattice, on cell faces and between: the queries pass over cells that cannot hold a
+// nearer point, so a tie across a cell face is where they would go wrong.
+TEST(SpatialHash, TiesAcrossCellFacesMatchBruteForce) {
+  std::vector<Eigen::Vector3f> points;
+  for (int z = -4; z <= 4; ++z) {
+    for (int y = -4; y <= 4; ++y) {
+      for (int x = -4; x <= 4; ++x) {
+        if ((x * 7 + y * 3 + z) % 4 == 0) continue;  // holes, so the nearest is not always at distance 0
+        points.emplace_back(0.0025f * x, 0.0025f * y, 0.0025f * z);
+        if ((x + y + z) % 3 == 0) points.emplace_back(0.0025f * x, 0.0025f * y, 0.0025f * z);  // duplicates
+      }
+    }
+  }
+  SpatialHash hash(0.005f);
+  hash.build(points);
+  int compared = 0;
+  for (int z = -10; z <= 10; ++z) {
+    for (int y = -10; y <= 10; ++y) {
+      for (int x = -10; x <= 10; ++x) {
+        const Eigen::Vector3f q(0.00125f * x, 0.00125f * y, 0.00125f * z);
+        for (const float max_distance : {0.0025f, 0.004f, 0.005f}) {
+          float expected_d2 = 0.f;
+          const int expected = brute_nearest(points, q, max_distance, expected_d2);
+          float d2 = -1.f;
+          const int got = hash.nearest(q, max_distance, &d2);
+          ASSERT_EQ(got, expected) << q.transpose() << " within " << max_distance;
+          if (expected >= 0) {
+            EXPECT_EQ(d2, expected_d2);
+          }
+          // The bound: the least of max_distance^2 and every other point's squared distance.
+          float expected_others = max_distance * max_distance;
+          for (std::size_t i = 0; i < points.size(); ++i) {
+            if (static_cast<int>(i) != expected) expected_others = std::min(expected_others, (points[i] - q).squaredNorm());
+          }
+          float bound_d2 = -1.f;
+          float others_d2 = -1.f;
+          ASSERT_EQ(hash.nearest_with_bound(q, max_distance, bound_d2, others_d2), expected);
+          EXPECT_EQ(others_d2, expected_others);
+          if (expected >= 0) {
+            EXPECT_EQ(bound_d2, expected_d2);
+          }
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(compared, 21 * 21 * 21 * 3);
 }
 
 TEST(SpatialHash, MaxDistanceIsInclusiveAndBounding) {
