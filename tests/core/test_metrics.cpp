@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <tuple>
@@ -71,6 +73,33 @@ TEST(FittingDistance, MeasuresAKnownOffset) {
   const FittingDistance d = evaluator.evaluate(model, pose);
   EXPECT_EQ(d.occluded, 0u);
   EXPECT_NEAR(d.mean, 0.003, 1e-6);
+}
+
+TEST(FittingDistance, EveryPointsDistanceIsToItsNearestScenePointAtAnyRange) {
+  // Model points from 1 mm to 60 cm from a sparse scene, so the nearest lies inside each of the
+  // search's growing radii and beyond the last bounded one; without the occlusion test the mean is
+  // the brute-force mean of each model point's nearest scene distance.
+  std::vector<Eigen::Vector3f> scene;
+  for (int i = 0; i < 40; ++i)
+    scene.emplace_back(0.013f * static_cast<float>(i % 7), 0.021f * static_cast<float>(i / 7), 1.f);
+  std::vector<Eigen::Vector3f> model;
+  for (int i = 0; i < 60; ++i) {
+    const float reach = 0.001f * std::pow(1.12f, static_cast<float>(i));  // 1 mm .. about 0.8 m
+    model.emplace_back(0.05f + reach * std::cos(0.7f * static_cast<float>(i)),
+                       0.04f + reach * std::sin(0.7f * static_cast<float>(i)), 1.f + 0.3f * reach);
+  }
+  FittingDistanceEvaluator evaluator(fitting_options(false));
+  evaluator.set_scene(scene);
+  double expected = 0.0;
+  for (const auto& m : model) {
+    float best = std::numeric_limits<float>::infinity();
+    for (const auto& q : scene) best = std::min(best, (q - m).squaredNorm());
+    expected += std::sqrt(static_cast<double>(best));
+  }
+  expected /= static_cast<double>(model.size());
+  const FittingDistance d = evaluator.evaluate(model, Pose{});
+  EXPECT_EQ(d.occluded, 0u);
+  EXPECT_DOUBLE_EQ(d.mean, expected);
 }
 
 TEST(FittingDistance, OccludedModelPointsCountAsZero) {
