@@ -238,7 +238,8 @@ TEST(SpatialHash, TiesAcrossCellFacesMatchBruteForce) {
           // The bound: the least of max_distance^2 and every other point's squared distance.
           float expected_others = max_distance * max_distance;
           for (std::size_t i = 0; i < points.size(); ++i) {
-            if (static_cast<int>(i) != expected) expected_others = std::min(expected_others, (points[i] - q).squaredNorm());
+            if (static_cast<int>(i) != expected)
+              expected_others = std::min(expected_others, (points[i] - q).squaredNorm());
           }
           float bound_d2 = -1.f;
           float others_d2 = -1.f;
