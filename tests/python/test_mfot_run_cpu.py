@@ -68,6 +68,23 @@ class ServiceCpuTest(unittest.TestCase):
             service.stop()
 
 
+    def test_a_stopped_process_has_its_cpu_time_up_to_the_stop(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            ready = Path(tmp) / "ready"
+            os.mkfifo(ready)
+            # Burns, says so through the FIFO, then waits for the stop's signal.
+            code = BURN + f"open({str(ready)!r}, 'w').write('x')\nimport signal\nsignal.pause()\n"
+            service = mfot_run.Service("burner", [sys.executable, "-c", code], Path(tmp) / "burner.log")
+            service.start()
+            with open(ready) as f:  # blocks until the child has burnt its share
+                self.assertEqual(f.read(), "x")
+            self.assertIsNone(service.poll())
+            self.assertEqual(service.cpu_seconds(), 0.0)  # running: not read while it runs
+            service.stop()
+            self.assertGreaterEqual(service.cpu_seconds(), BURN_S - 1.0 / mfot_run.CLOCK_TICKS)
+            self.assertLess(service.cpu_seconds(), 30.0)
+
+
 class CpuSummaryTest(unittest.TestCase):
     def test_per_frame_figures_and_busy_cores(self):
         line = mfot_run.cpu_summary({"cpu_s": {"capture": 15.4, "merger": 12.7, "tracker0": 3.0}, "frames": 842,
