@@ -68,10 +68,8 @@ std::size_t PartRefit::refit(std::span<const Eigen::Vector3f> segmented, std::sp
   for (const Eigen::Vector3f& p : segmented) segmented_local_.push_back(to_object * p);
   for (std::size_t i = 0; i < segmented.size(); ++i) {
     const Eigen::Vector3f& p = segmented[i];
-    // Half the radius first (8 of the hash's cells, not 27): the segmented points mostly lie that close to the
-    // model, and the nearest within it is the nearest within the whole radius.
-    int nearest = model_hash_.nearest(segmented_local_[i], 0.5f * options_.icp.max_distance);
-    if (nearest < 0) nearest = model_hash_.nearest(segmented_local_[i], options_.icp.max_distance);
+    // The segmented points mostly lie within half the radius of the model: looked for there first.
+    const int nearest = model_hash_.nearest_near_first(segmented_local_[i], options_.icp.max_distance);
     if (nearest < 0) continue;
     const auto part = static_cast<std::size_t>(
         std::upper_bound(part_ends.begin(), part_ends.end(), static_cast<std::uint32_t>(nearest)) - part_ends.begin());

@@ -58,10 +58,8 @@ void Segmenter::segment(std::span<const Eigen::Vector3f> scene_points, std::span
   result.labels.resize(scene_points.size());
   const auto label_range = [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      // Half tau first (8 of the hash's tau cells, not 27): most scene points lie that close to their
-      // model, and the nearest within it is the nearest within tau.
-      int nearest = hash_.nearest(scene_points[i], 0.5f * options_.tau);
-      if (nearest < 0) nearest = hash_.nearest(scene_points[i], options_.tau);
+      // Most scene points lie within tau / 2 of their model: looked for there first.
+      const int nearest = hash_.nearest_near_first(scene_points[i], options_.tau);
       result.labels[i] = nearest < 0 ? 0 : owner_[static_cast<std::size_t>(nearest)] + 1;
     }
   };

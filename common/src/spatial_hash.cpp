@@ -163,6 +163,11 @@ int SpatialHash::nearest(const Eigen::Vector3f& q, float max_distance, float* sq
   return best;
 }
 
+int SpatialHash::nearest_near_first(const Eigen::Vector3f& q, float max_distance, float* squared_distance) const {
+  const int near = nearest(q, 0.5f * max_distance, squared_distance);
+  return near >= 0 ? near : nearest(q, max_distance, squared_distance);
+}
+
 int SpatialHash::nearest_with_bound(const Eigen::Vector3f& q, float max_distance, float& squared_distance,
                                     float& others_squared_bound) const {
   // Every point within max_distance is visited, so one that is not lies further: max_distance bounds them.

@@ -78,8 +78,11 @@ TEST_P(SpatialHashVsBruteForce, NearestMatchesBruteForce) {
     float d2 = -1.f;
     const int got = hash.nearest(q, max_distance, &d2);
     ASSERT_EQ(got, expected);
+    float near_first_d2 = -1.f;
+    ASSERT_EQ(hash.nearest_near_first(q, max_distance, &near_first_d2), expected);
     if (expected >= 0) {
       EXPECT_EQ(d2, expected_d2);
+      EXPECT_EQ(near_first_d2, expected_d2);
       ++found;
     }
   }
@@ -232,6 +235,8 @@ TEST(SpatialHash, TiesAcrossCellFacesMatchBruteForce) {
           float d2 = -1.f;
           const int got = hash.nearest(q, max_distance, &d2);
           ASSERT_EQ(got, expected) << q.transpose() << " within " << max_distance;
+          const int got_near_first = hash.nearest_near_first(q, max_distance);
+          ASSERT_EQ(got_near_first, expected) << q.transpose() << " within " << max_distance;
           if (expected >= 0) {
             EXPECT_EQ(d2, expected_d2);
           }

@@ -43,6 +43,11 @@ class SpatialHash {
   // Index of the nearest point within max_distance of q, or -1. squared_distance gets its
   // squared distance when not null.
   int nearest(const Eigen::Vector3f& q, float max_distance, float* squared_distance = nullptr) const;
+  // The same answer as nearest, looking within max_distance / 2 first (the nearest point within the half
+  // radius is the nearest within the whole). With max_distance the cell size, a query with a point that
+  // close reads 8 cells instead of 27 and one without reads 8 more: for queries that mostly find one
+  // near (a scene against the models it came from).
+  int nearest_near_first(const Eigen::Vector3f& q, float max_distance, float* squared_distance = nullptr) const;
 
   // The same point as nearest (or -1), plus what lets a caller whose query point moves skip the next query:
   // squared_distance gets its squared distance, others_squared_bound a lower bound on the squared distance
