@@ -87,12 +87,17 @@ class ServiceCpuTest(unittest.TestCase):
 
 class CpuSummaryTest(unittest.TestCase):
     def test_per_frame_figures_and_busy_cores(self):
-        line = mfot_run.cpu_summary({"cpu_s": {"capture": 15.4, "merger": 12.7, "tracker0": 3.0}, "frames": 842,
-                                     "elapsed_s": 31.1, "cores": 2})
-        self.assertEqual(line, "capture 18.3 ms, merger 15.1 ms, tracker0 3.6 ms; 1.00 cores busy of 2")
+        s = {"cpu_s": {"capture": 15.4, "merger": 12.7, "tracker0": 3.0}, "frames": 842, "elapsed_s": 31.1, "cores": 2}
+        figures = mfot_run.cpu_figures(s)
+        self.assertEqual(figures, {"cpu_ms_per_frame": {"capture": 18.29, "merger": 15.08, "tracker0": 3.56},
+                                   "cores_busy": 1.0})
+        s.update(figures)
+        self.assertEqual(mfot_run.cpu_summary(s),
+                         "capture 18.3 ms, merger 15.1 ms, tracker0 3.6 ms; 1.00 cores busy of 2")
 
     def test_nothing_without_frames_or_figures(self):
-        self.assertEqual(mfot_run.cpu_summary({"cpu_s": {"capture": 1.0}, "frames": 0, "elapsed_s": 3.0}), "")
+        self.assertEqual(mfot_run.cpu_figures({"cpu_s": {"capture": 1.0}, "frames": 0, "elapsed_s": 3.0}), {})
+        self.assertEqual(mfot_run.cpu_figures({"frames": 10, "elapsed_s": 3.0}), {})
         self.assertEqual(mfot_run.cpu_summary({"frames": 10, "elapsed_s": 3.0}), "")
 
 
