@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
   bool append_output = false;
   app.add_option("--config", config_path, "YAML config (section `merger`)");
   app.add_option("--lcm-url", lcm_url_arg, "LCM provider URL (default: $MFOT_LCM_URL, $LCM_DEFAULT_URL or udpm ttl=0)");
-  app.add_option("--output-dir", output_dir, "write poses.csv, fitting.csv and labels/ here");
+  app.add_option("--output-dir", output_dir, "write poses.csv and fitting.csv here");
   app.add_flag("--append-output", append_output,
                "continue the CSV files already in --output-dir (a restarted merger) instead of starting them anew");
   CLI11_PARSE(app, argc, argv);

@@ -104,19 +104,22 @@ class IoErrorTest(unittest.TestCase):
         self.assertIn("MFOT_STATUS", events, said)
         self.assertTrue((run / "poses.csv").read_text().startswith("frame,utime,object_id"), said)
 
-    def test_a_merger_that_cannot_write_a_label_image_stops_the_group(self):
-        """Only the label images' folder is full (a 64 KiB tmpfs): the merger exits with 3 naming the image
-        and the system's reason, mfot-run does not restart it and stops the group; the log is whole."""
+    def test_label_images_that_cannot_be_written_are_a_named_problem(self):
+        """Only the label images' folder is full (a 64 KiB tmpfs): mfot-labels, drawing them from the log after
+        the run, names the image and the system's reason, and mfot-run exits 1 with it as a PROBLEM; the poses
+        and the log are whole."""
         run = self.tmp / "labels-full"
         labels = self.mount_small_disk(run / "labels", "64k")
         res = run_group(run, "--scenario", "stack", "--max-frames", "100")
         said = explain(res, run)
         self.assertEqual(res.returncode, 1, said)
-        self.assertRegex(res.stdout, rf"error: merger cannot write its output: {labels}/\d{{6}}\.png\.tmp: cannot write PNG: "
-                                     r"[^\n]*No space left on device[^\n]*; stopping the process group", said)
+        self.assertRegex(res.stdout, rf"PROBLEM +label images: [^\n]*{labels}/\d{{6}}\.png\.tmp: cannot write PNG: "
+                                     r"[^\n]*No space left on device", said)
         self.assertNotIn("restarting", res.stdout, said)
         self.assertEqual(processes_mentioning(str(run)), [], said)
         self.assertGreater(len(list(mfot_lcm.read_log(run / "mfot.lcmlog"))), 0, said)  # reads to its end
+        poses = (run / "poses.csv").read_text().splitlines()
+        self.assertEqual(len({line.split(",")[0] for line in poses[1:]}), 100, said)  # every frame posed
 
     def test_an_unwritable_processes_json_stops_the_group(self):
         """processes.json cannot be written (its temporary file is /dev/full: ENOSPC on every write): mfot-run

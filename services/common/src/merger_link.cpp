@@ -6,11 +6,6 @@
 
 namespace mfot::service {
 
-namespace {
-// Frames kept for label images: the scene of a frame arrives a few frames after it at most.
-constexpr std::size_t kFramesKept = 64;
-}  // namespace
-
 MergerCoreOptions merger_core_options(const MergerConfig& config) {
   MergerCoreOptions options;
   options.manager = config.manager;
@@ -28,15 +23,13 @@ MergerCoreOptions merger_core_options(const MergerConfig& config) {
 
 LcmMergerLink::LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const MergerConfig& config,
                              const std::optional<std::string>& output_dir, bool append)
-    : lcm_(lcm),
-      status_(status),
-      world_from_camera_(config.world_from_camera),
-      velocities_(config.world_from_camera),
-      write_labels_(config.write_labels) {
+    : lcm_(lcm), status_(status), world_from_camera_(config.world_from_camera), velocities_(config.world_from_camera) {
   if (!output_dir) return;
+  // Label images are drawn from the log after the run (mfot-labels), not here.
   outputs_ = std::make_unique<RunOutputs>(
-      *output_dir, append, RunOutputsOptions{config.write_labels, config.fitting_distance, true}, status_.malformed());
-  if (config.write_labels) lcm_.subscribe(channel::kFrame, &LcmMergerLink::on_frame, this);
+      *output_dir, append,
+      RunOutputsOptions{.write_labels = false, .fitting_distance = config.fitting_distance, .background = true},
+      status_.malformed());
 }
 
 void LcmMergerLink::send_model(const ManagedObject& object, std::int32_t worker_id, std::int64_t worker_instance,
@@ -83,29 +76,9 @@ void LcmMergerLink::publish_frame(const FinishedFrame& frame) {
   publish_message(lcm_, channel::kPoses, poses);
   // The files that only evaluation reads come after the poses, off the frame-to-pose path (in
   // lockstep the next frame is on its way meanwhile).
-  if (outputs_) {
-    std::optional<frame_t> source;
-    const auto it = frames_.find(scene.frame_seq);
-    if (it != frames_.end()) {
-      source = std::move(it->second);
-      frames_.erase(frames_.begin(), std::next(it));
-    } else if (write_labels_) {
-      status_.set_message("no frame for labels of seq " + std::to_string(scene.frame_seq));
-    }
-    outputs_->write_frame(scene, frame.result.labels, frame.objects, std::move(source));
-  }
+  if (outputs_) outputs_->write_frame(scene, frame.result.labels, frame.objects, std::nullopt);
   status_.frame_done(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame.due_at).count());
-}
-
-void LcmMergerLink::on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name) {
-  frame_t msg;
-  if (!decode_message(rbuf, channel_name, msg, status_.malformed())) return;
-  // Decoded on the output thread: the frame arrives while preprocess works on it, and this
-  // thread's decoding would take the CPU from the frame-to-pose path.
-  const std::int64_t seq = msg.seq;
-  frames_[seq] = std::move(msg);
-  while (frames_.size() > kFramesKept) frames_.erase(frames_.begin());
 }
 
 void LcmMergerLink::finish() {

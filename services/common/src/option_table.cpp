@@ -208,7 +208,7 @@ constexpr OptionEntry kTable[] = {
     integer("merger.resume_listen_ms", "300", "0", "10000", "ms", "after a start, finish no frame for this long while workers that hold objects this merger does not know are asked for them (a restarted merger resumes their ids, models, poses and owners)"),
     integer("merger.resume_timeout_ms", "500", "1", "10000", "ms", "a worker asked for its object answers within this long, else the object is retired"),
     integer("merger.threads", "0", "0", "64", "", "the merger's threads: the segmentation's ranges of scene points, and a frame's born clusters split into parts (supervoxels + LCCP: the first frame's, the young objects' confirmations), side by side; 0 = a quarter of the machine's cores, as preprocess.threads. The output is the same for every count"),
-    flag("merger.write_labels", "true", "write labels/<frame>.png next to poses.csv"),
+    flag("merger.write_labels", "true", "write labels/<frame>.png next to poses.csv (mfot-run: drawn from the log after the run, by mfot-labels)"),
     flag("merger.fitting_distance", "true", "write fitting.csv (thesis eq. 4.1, 4.2)"),
     note("merger", "Object discovery where objects are born (the first frame, a cluster no object explains): `lccp` splits such a cluster into its locally convex connected parts (PCL's supervoxels + LCCP, Stein et al. 2014), so touching and stacked objects are found apart from the first frame (the thesis makes each Euclidean cluster one object). Runs only at birth, never per frame. Supervoxel and LCCP settings as PCL's example_lccp_segmentation (docs/method.md, Constants)."),
     mapping("merger.discovery", ""),

@@ -103,12 +103,14 @@ void RunWriter::write_fitting(std::int64_t frame, std::int32_t object_id, double
   fitting_ << frame << ',' << object_id << ',' << fitting_distance_m << '\n';
 }
 
-void RunWriter::write_labels(std::int64_t frame, const Image16& labels) {
+void RunWriter::write_labels(std::int64_t frame, const Image16& labels) { write_label_image(dir_, frame, labels); }
+
+void write_label_image(const std::string& run_dir, std::int64_t frame, const Image16& labels) {
   char name[64];
   std::snprintf(name, sizeof name, "/labels/%06lld.png", static_cast<long long>(frame));
-  const std::string path = dir_ + name;
+  const std::string path = run_dir + name;
   try {
-    write_png16(path + ".tmp", labels, PngCompression::kFast);  // one per frame on the merger's critical path
+    write_png16(path + ".tmp", labels, PngCompression::kFast);  // one per frame
   } catch (const ImageIoError& e) {
     throw OutputError(e.what());
   }

@@ -1,14 +1,12 @@
 #pragma once
 // The merger's side of LCM: publishes what MergerCore says (models, retirements, frame ends, re-sent
-// scenes, segmentation and poses), writes the run folder's results, keeps the frames the label images
-// need (MFOT_FRAME), and reports on MFOT_STATUS.
+// scenes, segmentation and poses), writes the run folder's poses.csv and fitting.csv, and reports on
+// MFOT_STATUS. The label images are drawn from the log after the run (log_label_images.hpp).
 
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 
-#include "mfot/frame_t.hpp"
 #include "mfot/service/merger_core.hpp"
 #include "mfot/service/pipeline_config.hpp"
 #include "mfot/service/pose_velocity.hpp"
@@ -22,7 +20,7 @@ MergerCoreOptions merger_core_options(const MergerConfig& config);
 
 class LcmMergerLink : public MergerSink {
  public:
-  // `output_dir`: write poses.csv, fitting.csv and labels/ there (`append`: continue them).
+  // `output_dir`: write poses.csv and fitting.csv there (`append`: continue them).
   LcmMergerLink(lcm::LCM& lcm, StatusReporter& status, const MergerConfig& config,
                 const std::optional<std::string>& output_dir, bool append);
 
@@ -37,8 +35,6 @@ class LcmMergerLink : public MergerSink {
   void publish_frame(const FinishedFrame& frame) override;
   void note(const std::string& message) override { status_.set_message(message); }
 
-  // MFOT_FRAME, kept (as received, decoded on the output thread) for the label image of its scene.
-  void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& channel_name);
   // Waits for the output thread and flushes the files.
   void finish();
 
@@ -47,10 +43,8 @@ class LcmMergerLink : public MergerSink {
   StatusReporter& status_;
   Pose world_from_camera_;
   PoseVelocityEstimator velocities_;  // MFOT_POSES velocities
-  bool write_labels_;
   std::unique_ptr<RunOutputs> outputs_;
-  std::map<std::int64_t, frame_t> frames_;  // by seq, for label images
-  ModelDiffer differ_;                      // finds a new model version's edit
+  ModelDiffer differ_;  // finds a new model version's edit
 };
 
 }  // namespace mfot::service

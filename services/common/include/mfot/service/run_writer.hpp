@@ -43,6 +43,10 @@ class RunWriter {
   std::ofstream fitting_;
 };
 
+// `run_dir`/labels/<frame %06d>.png (the folder must exist), written under a temporary name and
+// renamed, so a reader never sees half an image; OutputError naming the path when it cannot be.
+void write_label_image(const std::string& run_dir, std::int64_t frame, const Image16& labels);
+
 // Label image value of a measured pixel that is not a scene point (table, cropped, filtered out),
 // so an evaluation can score the scene points (thesis 4.3) apart from all measured pixels.
 inline constexpr std::uint16_t kNotScenePoint = 65535;
