@@ -4,14 +4,14 @@
 // that arrive while one is processed wait in order (in lockstep with a window of several frames,
 // the next frames are preprocessed while the trackers and the merger work on earlier ones); beyond
 // preprocess.queue_frames the oldest is dropped (counted). Malformed frames are counted and
-// dropped. With preprocess.threads >= 2 depth and colour decode side by side and the
-// Preprocessor splits its work over that many threads (the same scene for any count).
+// dropped. With preprocess.threads >= 2 depth and colour decode side by side, the next queued frame
+// is decoded on a thread of its own while the current one is preprocessed (PreprocessQueue), and
+// the Preprocessor splits its work over that many threads (the same scene for any count).
 
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
-#include <deque>
 #include <string>
 #include <utility>
 
@@ -25,6 +25,7 @@
 #include "mfot/service/group_security.hpp"
 #include "mfot/service/lcm_util.hpp"
 #include "mfot/service/pipeline_config.hpp"
+#include "mfot/service/preprocess_queue.hpp"
 #include "mfot/service/service_main.hpp"
 #include "mfot/service/status.hpp"
 
@@ -38,8 +39,8 @@ class PreprocessService {
   PreprocessService(lcm::LCM& lcm, const PreprocessConfig& config)
       : lcm_(lcm),
         preprocessor_(config.preprocessor),
-        decode_pool_(config.preprocessor.threads >= 2 ? 2 : 1),
-        queue_frames_(static_cast<std::size_t>(config.queue_frames)),
+        queue_(static_cast<std::size_t>(config.queue_frames), config.preprocessor.threads >= 2,
+               config.preprocessor.threads >= 2 ? 2 : 1),
         status_(lcm, "preprocess", 0, "cpu") {
     lcm_.subscribe(channel::kFrame, &PreprocessService::on_frame, this);
   }
@@ -55,11 +56,10 @@ class PreprocessService {
       // arrive meanwhile join the queue in order).
       while (lcm_.handleTimeout(0) > 0) {
       }
-      status_.set_queue_depth(static_cast<int>(pending_.size()));
-      if (!pending_.empty()) {
-        process(pending_.front());
-        spare_ = std::move(pending_.front());  // keeps its buffers' capacity for the next frame
-        pending_.pop_front();
+      status_.set_queue_depth(static_cast<int>(queue_.size()));
+      if (!queue_.empty()) {
+        process(queue_.front());
+        queue_.pop_front();
       }
       status_.tick();
     }
@@ -67,14 +67,12 @@ class PreprocessService {
 
  private:
   void on_frame(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
-    if (!decode_message(rbuf, chan, spare_, status_.malformed())) return;
-    if (const auto refusal = gate_.admit(spare_)) {
+    if (!decode_message(rbuf, chan, queue_.incoming(), status_.malformed())) return;
+    if (const auto refusal = gate_.admit(queue_.incoming())) {
       status_.malformed().record(chan, refusal->kind, refusal->detail);
       return;
     }
-    pending_.push_back(std::move(spare_));
-    if (pending_.size() > queue_frames_) {
-      pending_.pop_front();
+    if (queue_.push_incoming()) {
       ++dropped_;
       status_.set_message("dropped " + std::to_string(dropped_) + " frames (more than preprocess.queue_frames waited)");
     }
@@ -84,7 +82,7 @@ class PreprocessService {
     const auto start = Clock::now();
     Frame frame;
     try {
-      frame = decode_frame(message, FrameParts::kDepthAndColor, &decode_pool_);
+      frame = queue_.decode_front();  // of `message`
     } catch (const FrameCodecError& e) {
       status_.malformed().record(channel::kFrame, "undecodable frame", e.what());
       return;
@@ -103,11 +101,8 @@ class PreprocessService {
 
   lcm::LCM& lcm_;
   Preprocessor preprocessor_;
-  mfot::ThreadPool decode_pool_;
-  std::size_t queue_frames_;
+  PreprocessQueue queue_;  // frames admitted and waiting, in arrival order
   StatusReporter status_;
-  std::deque<frame_t> pending_;  // in arrival order
-  frame_t spare_;                // the next frame is decoded into this one
   std::int64_t dropped_ = 0;
   FrameGate gate_;  // sizes and sequence of each frame before it is queued
   scene_cloud_t out_{};
