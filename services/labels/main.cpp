@@ -19,7 +19,9 @@
 #include "mfot/service/config.hpp"
 #include "mfot/service/group_security.hpp"
 #include "mfot/service/lcm_log_reader.hpp"
+#include "mfot/service/lcm_util.hpp"
 #include "mfot/service/log_label_images.hpp"
+#include "mfot/service/message_authenticator.hpp"
 #include "mfot/service/service_main.hpp"
 
 namespace mfot::service {
@@ -42,6 +44,11 @@ int draw_labels(const std::string& run_dir, const std::string& log_path, int thr
     std::cout << "mfot-labels: segmentations without their frame " << counts.without_frame << ", without their scene "
               << counts.without_scene << ", with a label count not their scene's " << counts.mismatched
               << ", with an undecodable frame " << counts.undecodable << "\n";
+  }
+  const AuthCounts dropped = message_authenticator()->counts();
+  if (dropped.foreign + dropped.forged + dropped.replayed > 0) {
+    std::cout << "mfot-labels: messages not drawn: " << dropped.foreign << " of other groups, " << dropped.forged
+              << " forged, " << dropped.replayed << " replayed\n";
   }
   if (rejected.total() > 0) {
     std::cout << "mfot-labels: " << rejected.total() << " messages rejected, the last: " << rejected.last() << "\n";
@@ -77,6 +84,9 @@ int main(int argc, char** argv) {
     // The run's group and key: only its own messages are drawn (another group's on the same URL, or
     // forged ones, were recorded too).
     install_group_security(load_config_file(config_path));
+    // A log is read after the fact: how old its messages are says nothing (group.max_message_age_s is for
+    // live receivers); the group, the MAC and each sender's increasing sequence are still checked.
+    message_authenticator()->set_max_age_us(0);
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     return draw_labels(run_dir, log_path, threads > 0 ? threads : std::min(cores, 64));
   });

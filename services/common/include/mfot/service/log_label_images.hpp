@@ -10,7 +10,8 @@
 //     group's traffic on the URL, forged or replayed messages are counted, never drawn.
 //  2. Match the three by frame sequence number. The first segmentation of a frame wins (a restarted
 //     merger may finish a frame again); at most kMaxPendingFrames unmatched frames, scenes and
-//     segmentations each are kept, the oldest dropped first, so memory stays bounded for any log.
+//     segmentations each are kept, the oldest dropped first, so a log of any length holds no more
+//     than that many messages in memory (and the numbers of the frames drawn, 8 bytes each).
 //  3. Draw the matched frames side by side on `threads` threads: the frame's depth only is decoded,
 //     the labels of the scene points spread over the pixels of their voxels (dense_labels), and the
 //     PNG written under a temporary name and renamed (RunWriter::write_labels), so an image appears
