@@ -120,5 +120,18 @@ TEST(PreprocessQueue, GivesTheSameFramesWithAndWithoutDecodeAhead) {
   EXPECT_EQ(plain, (std::vector<std::int64_t>{1, -5, 6, -8, 8, 9}));
 }
 
+TEST(PreprocessQueue, IsDestroyedSafelyWhileTheNextFrameIsDecodedAhead) {
+  // As when preprocessing throws between decode_front and pop_front: the queued message being decoded
+  // ahead must outlive that decoding (the decoder is destroyed, and joined, before the queue's frames).
+  for (int round = 0; round < 20; ++round) {
+    PreprocessQueue queue(4, true, 1);
+    for (std::int64_t seq = 0; seq < 3; ++seq) {
+      queue.incoming() = encoded_frame(seq);
+      queue.push_incoming();
+    }
+    EXPECT_EQ(queue.decode_front().depth_mm, decode_frame(queue.front()).depth_mm);
+  }
+}
+
 }  // namespace
 }  // namespace mfot::service

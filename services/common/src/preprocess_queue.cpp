@@ -8,8 +8,8 @@ namespace mfot::service {
 
 PreprocessQueue::PreprocessQueue(std::size_t capacity, bool decode_ahead, int decode_threads)
     : capacity_(capacity),
-      ahead_(decode_ahead ? std::make_unique<DecodeAhead>() : nullptr),
-      decode_pool_(decode_threads) {
+      decode_pool_(decode_threads),
+      ahead_(decode_ahead ? std::make_unique<DecodeAhead>() : nullptr) {
   if (capacity_ < 1) throw std::invalid_argument("PreprocessQueue: capacity must be >= 1");
 }
 

@@ -49,12 +49,13 @@ class PreprocessQueue {
 
  private:
   std::size_t capacity_;
-  std::unique_ptr<DecodeAhead> ahead_;
   ThreadPool decode_pool_;
   std::deque<frame_t> pending_;  // in arrival order
   frame_t incoming_;
   std::optional<Frame> front_frame_;  // pending_.front() decoded ahead
   bool in_use_ = false;               // between decode_front() and pop_front()
+  // Declared last, so it is destroyed first: it may still be decoding a queued message.
+  std::unique_ptr<DecodeAhead> ahead_;
 };
 
 }  // namespace mfot::service
