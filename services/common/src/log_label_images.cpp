@@ -27,10 +27,8 @@ void LogLabelImages::add(const LcmLogEvent& event) {
   const bool frame = event.channel == channel::kFrame, scene = event.channel == channel::kScene,
              segmentation = event.channel == channel::kSegmentation;
   if (!frame && !scene && !segmentation) return;
-  lcm::ReceiveBuffer rbuf{};
-  rbuf.data = const_cast<std::uint8_t*>(event.data.data());
-  rbuf.data_size = static_cast<std::uint32_t>(event.data.size());
-  rbuf.recv_utime = event.utime;
+  const lcm::ReceiveBuffer rbuf{const_cast<std::uint8_t*>(event.data.data()),
+                                static_cast<std::uint32_t>(event.data.size()), event.utime};
   std::int64_t seq = 0;
   if (frame) {
     frame_t msg;
@@ -96,22 +94,20 @@ void LogLabelImages::try_match(std::int64_t seq) {
 }
 
 void LogLabelImages::draw_queued() {
-  undecodable_.assign(queued_.size(), 0);
-  pool_.run(queued_.size(), [this](std::size_t k) {
+  std::vector<char> undecodable(queued_.size(), 0);  // set by the drawing threads
+  pool_.run(queued_.size(), [&](std::size_t k) {
     const Job& job = queued_[k];
-    Frame f;
+    Image16 image;
     try {
-      f = decode_frame(job.frame, FrameParts::kDepthOnly);  // label images need depth only
+      image = frame_label_image(job.frame, job.scene.voxel_grid, job.scene.cloud.positions, job.labels);
     } catch (const FrameCodecError& e) {
-      undecodable_[k] = 1;
+      undecodable[k] = 1;
       malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
       return;
     }
-    write_label_image(run_dir_, job.seq,
-                      dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, job.scene.voxel_grid,
-                                   job.scene.cloud.positions, job.labels));
+    write_label_image(run_dir_, job.seq, image);
   });
-  for (const char bad : undecodable_) {
+  for (const char bad : undecodable) {
     if (bad) {
       ++counts_.undecodable;
     } else {

@@ -78,9 +78,7 @@ void RunOutputs::write_outputs(std::int64_t seq, const std::vector<Eigen::Vector
     }
     if (!frame) return;
     try {
-      const Frame f = decode_frame(*frame, FrameParts::kDepthOnly);  // label images need depth only
-      writer_.write_labels(
-          seq, dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_grid, points, labels));
+      writer_.write_labels(seq, frame_label_image(*frame, voxel_grid, points, labels));
     } catch (const FrameCodecError& e) {
       malformed_.record(channel::kFrame, "undecodable frame", e.what());  // MalformedCounter locks
     }

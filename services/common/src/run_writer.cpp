@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "mfot/service/frame_codec.hpp"
 #include "mfot/service/service_main.hpp"
 
 namespace mfot::service {
@@ -185,6 +186,12 @@ Image16 dense_labels(int width, int height, float fx, float fy, float cx, float 
     }
   }
   return out;
+}
+
+Image16 frame_label_image(const frame_t& frame, const VoxelGrid& voxel_grid,
+                          std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels) {
+  const Frame f = decode_frame(frame, FrameParts::kDepthOnly);
+  return dense_labels(f.width, f.height, f.fx, f.fy, f.cx, f.cy, f.depth_mm, voxel_grid, scene_points, labels);
 }
 
 }  // namespace mfot::service

@@ -79,7 +79,6 @@ class LogLabelImages {
   std::map<std::int64_t, std::vector<std::int32_t>> segmentations_;
   std::set<std::int64_t> drawn_;
   std::vector<Job> queued_;
-  std::vector<char> undecodable_;  // per queued job, set by the drawing threads
   LabelImageCounts counts_;
 };
 

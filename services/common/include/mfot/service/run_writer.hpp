@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 
+#include "mfot/frame_t.hpp"
 #include "mfot/service/image_io.hpp"
 #include "mfot/types.hpp"
 #include "mfot/voxel_grid.hpp"
@@ -58,5 +59,10 @@ inline constexpr std::uint16_t kNotScenePoint = 65535;
 Image16 dense_labels(int width, int height, float fx, float fy, float cx, float cy,
                      std::span<const std::uint16_t> depth_mm, const VoxelGrid& voxel_grid,
                      std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels);
+
+// dense_labels of the frame a scene came from, its depth decoded (only: the colour is not needed). Throws
+// FrameCodecError for a frame that does not decode.
+Image16 frame_label_image(const frame_t& frame, const VoxelGrid& voxel_grid,
+                          std::span<const Eigen::Vector3f> scene_points, std::span<const std::int32_t> labels);
 
 }  // namespace mfot::service
