@@ -39,8 +39,7 @@ class PreprocessService {
   PreprocessService(lcm::LCM& lcm, const PreprocessConfig& config)
       : lcm_(lcm),
         preprocessor_(config.preprocessor),
-        queue_(static_cast<std::size_t>(config.queue_frames), config.preprocessor.threads >= 2,
-               config.preprocessor.threads >= 2 ? 2 : 1),
+        queue_(static_cast<std::size_t>(config.queue_frames), config.preprocessor.threads),
         status_(lcm, "preprocess", 0, "cpu") {
     lcm_.subscribe(channel::kFrame, &PreprocessService::on_frame, this);
   }

@@ -83,7 +83,7 @@ frame_t cut_frame(std::int64_t seq) {
 // what it gives: the seq of each frame decoded (-seq - 1 for an undecodable one), checking each
 // frame against decode_frame of its message.
 std::vector<std::int64_t> drain(bool ahead) {
-  PreprocessQueue queue(2, ahead, 2);
+  PreprocessQueue queue(2, ahead ? 2 : 1);
   std::vector<std::int64_t> got;
   const auto take_one = [&] {
     const frame_t& message = queue.front();
@@ -124,7 +124,7 @@ TEST(PreprocessQueue, IsDestroyedSafelyWhileTheNextFrameIsDecodedAhead) {
   // As when preprocessing throws between decode_front and pop_front: the queued message being decoded
   // ahead must outlive that decoding (the decoder is destroyed, and joined, before the queue's frames).
   for (int round = 0; round < 20; ++round) {
-    PreprocessQueue queue(4, true, 1);
+    PreprocessQueue queue(4, 2);
     for (std::int64_t seq = 0; seq < 3; ++seq) {
       queue.incoming() = encoded_frame(seq);
       queue.push_incoming();

@@ -6,11 +6,12 @@
 
 namespace mfot::service {
 
-PreprocessQueue::PreprocessQueue(std::size_t capacity, bool decode_ahead, int decode_threads)
+PreprocessQueue::PreprocessQueue(std::size_t capacity, int threads)
     : capacity_(capacity),
-      decode_pool_(decode_threads),
-      ahead_(decode_ahead ? std::make_unique<DecodeAhead>() : nullptr) {
+      decode_pool_(threads >= 2 ? 2 : 1),
+      ahead_(threads >= 2 ? std::make_unique<DecodeAhead>() : nullptr) {
   if (capacity_ < 1) throw std::invalid_argument("PreprocessQueue: capacity must be >= 1");
+  if (threads < 1) throw std::invalid_argument("PreprocessQueue: threads must be >= 1");
 }
 
 bool PreprocessQueue::push_incoming() {

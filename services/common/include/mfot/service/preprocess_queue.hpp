@@ -25,9 +25,9 @@ namespace mfot::service {
 
 class PreprocessQueue {
  public:
-  // capacity >= 1; decode_threads in [1, 64] for the depth and colour of the oldest frame side by
-  // side (2) or one after the other (1).
-  PreprocessQueue(std::size_t capacity, bool decode_ahead, int decode_threads);
+  // capacity >= 1. threads: preprocess.threads, >= 1; from 2 on the oldest frame's depth and colour
+  // decode side by side and the next frame is decoded ahead, below it all decoding is on the caller's thread.
+  PreprocessQueue(std::size_t capacity, int threads);
   PreprocessQueue(const PreprocessQueue&) = delete;
   PreprocessQueue& operator=(const PreprocessQueue&) = delete;
 
