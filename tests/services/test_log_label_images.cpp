@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include "mfot/service/convert.hpp"
 #include "mfot/service/frame_codec.hpp"
 #include "mfot/service/image_io.hpp"
 #include "mfot/service/log_label_images.hpp"
@@ -43,49 +44,23 @@ Frame test_frame(int shift) {
 }
 
 // The box's pixels back-projected: one scene point per pixel (voxels of 1 cm hold one or two).
-Scene test_scene(const Frame& f, std::int64_t seq) {
-  Scene s;
-  s.frame_seq = seq;
+SceneCloud test_scene(const Frame& f) {
+  SceneCloud s;
   s.voxel_grid.leaf = kLeaf;
   s.voxel_grid.corner = Eigen::Vector3f(-1.f, -1.f, 0.f);
   for (int v = 0; v < kHeight; ++v) {
     for (int u = 0; u < kWidth; ++u) {
       const float z = 0.001f * static_cast<float>(f.depth_mm[v * kWidth + u]);
       if (z > 0.45f) continue;
-      s.cloud.push_back(
-          Eigen::Vector3f((static_cast<float>(u) - kCx) * z / kF, (static_cast<float>(v) - kCy) * z / kF, z),
-          Rgb8{200, 30, 30});
+      s.positions.emplace_back((static_cast<float>(u) - kCx) * z / kF, (static_cast<float>(v) - kCy) * z / kF, z);
+      s.colors.push_back(Rgb8{200, 30, 30});
+      s.pixel_u.push_back(static_cast<std::int16_t>(u));
+      s.pixel_v.push_back(static_cast<std::int16_t>(v));
+      s.cluster.push_back(0);
     }
   }
-  s.cluster.assign(s.cloud.size(), 0);
+  s.num_clusters = 1;
   return s;
-}
-
-scene_cloud_t scene_message(const Scene& s) {
-  scene_cloud_t m{};
-  m.frame_seq = s.frame_seq;
-  m.width = kWidth;
-  m.height = kHeight;
-  m.fx = m.fy = kF;
-  m.cx = kCx;
-  m.cy = kCy;
-  m.voxel_size = s.voxel_grid.leaf;
-  for (int i = 0; i < 3; ++i) m.voxel_origin[i] = s.voxel_grid.corner[i];
-  m.num_points = static_cast<std::int32_t>(s.cloud.size());
-  for (std::size_t i = 0; i < s.cloud.size(); ++i) {
-    const Eigen::Vector3f& p = s.cloud.positions[i];
-    m.x.push_back(p.x());
-    m.y.push_back(p.y());
-    m.z.push_back(p.z());
-    m.r.push_back(200);
-    m.g.push_back(30);
-    m.b.push_back(30);
-    m.u.push_back(static_cast<std::int16_t>(std::lround(p.x() / p.z() * kF + kCx)));
-    m.v.push_back(static_cast<std::int16_t>(std::lround(p.y() / p.z() * kF + kCy)));
-    m.cluster.push_back(0);
-  }
-  m.num_clusters = 1;
-  return m;
 }
 
 template <class T>
@@ -115,14 +90,16 @@ class LogLabelImagesTest : public ::testing::Test {
   };
   Messages messages(std::int64_t seq, int shift, std::int32_t label, MessageAuthenticator* stamp = nullptr) {
     const Frame f = test_frame(shift);
-    const Scene s = test_scene(f, seq);
-    const std::vector<std::int32_t> labels(s.cloud.size(), label);
+    const SceneCloud s = test_scene(f);
+    const std::vector<std::int32_t> labels(s.size(), label);
     EncodeOptions rvl;
     rvl.depth = DepthEncoding::kRvl;
-    Messages m{event_of(channel::kFrame, encode_frame(f, rvl, seq, "test", 0), stamp),
-               event_of(channel::kScene, scene_message(s), stamp),
+    const frame_t frame = encode_frame(f, rvl, seq, "test", 0);
+    scene_cloud_t scene;
+    scene_to_message(s, frame, scene);
+    Messages m{event_of(channel::kFrame, frame, stamp), event_of(channel::kScene, scene, stamp),
                event_of(channel::kSegmentation, segmentation_message(seq, labels, 0), stamp),
-               dense_labels(kWidth, kHeight, kF, kF, kCx, kCy, f.depth_mm, s.voxel_grid, s.cloud.positions, labels)};
+               dense_labels(kWidth, kHeight, kF, kF, kCx, kCy, f.depth_mm, s.voxel_grid, s.positions, labels)};
     return m;
   }
   Image16 image(std::int64_t seq) const {
