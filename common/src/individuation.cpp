@@ -110,7 +110,8 @@ void NewObjectDetector::reset() {
 }
 
 void NewObjectDetector::update(std::span<const Eigen::Vector3f> points, const ClusterSet& clusters,
-                               std::span<const std::int32_t> labels, std::vector<int>& confirmed) {
+                               std::span<const std::int32_t> labels, std::vector<int>& confirmed,
+                               std::size_t candidate_clusters) {
   if (labels.size() != points.size() || clusters.cluster_of_point.size() != points.size()) {
     throw std::invalid_argument("NewObjectDetector: points, labels and clusters must cover the same points");
   }
@@ -128,7 +129,7 @@ void NewObjectDetector::update(std::span<const Eigen::Vector3f> points, const Cl
   // (overlap, candidate, cluster) of every pair above min_overlap.
   std::vector<std::tuple<float, int, int>> pairs;
   std::vector<int> unexplained;
-  for (std::size_t k = 0; k < clusters.size(); ++k) {
+  for (std::size_t k = 0; k < std::min(clusters.size(), candidate_clusters); ++k) {
     if (!(shares_[k] > options_.min_unassigned_share)) continue;
     unexplained.push_back(static_cast<int>(k));
     if (candidates_.empty()) continue;

@@ -94,8 +94,12 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options,
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
 
 const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
-                                                 std::span<const std::int32_t> cluster_of_point,
+                                                 std::span<const std::int32_t> cluster_of_point, int standing_clusters,
                                                  const std::map<std::int32_t, ObjectEstimate>& estimates) {
+  if (standing_clusters < 0) {
+    throw std::invalid_argument("ObjectManager::process: standing_clusters " + std::to_string(standing_clusters) +
+                                " is negative");
+  }
   if (cluster_of_point.size() != scene.size()) {
     throw std::invalid_argument("ObjectManager::process: cluster_of_point has " +
                                 std::to_string(cluster_of_point.size()) + " entries for " +
@@ -142,6 +146,7 @@ const ObjectManagerFrame& ObjectManager::process(const ColoredCloud& scene,
   retire_unsupported(scene);
   // 5. labels propagated, young models grown; 6. new objects from clusters no object explains, re-identified
   index_clusters(cluster_of_point);
+  standing_clusters_ = std::min(clusters_.size(), static_cast<std::size_t>(standing_clusters));
   propagate_and_create(scene);
   // 7. join parts that move as one, split objects whose parts moved apart, confirm the discovery
   join_and_split(scene, cluster_of_point);
@@ -258,20 +263,20 @@ void ObjectManager::index_clusters(std::span<const std::int32_t> cluster_of_poin
 void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
   if (frames_ == 0 && objects_.empty()) {  // the first frame: every cluster, nothing to propagate
     // Nothing is labelled yet, so each cluster's parts are found from its own points: all side by side.
-    std::vector<std::vector<int>> free_points(clusters_.size());
-    for (std::size_t c = 0; c < clusters_.size(); ++c) free_points[c] = unexplained_points(clusters_.cluster(c));
-    std::vector<std::vector<std::vector<int>>> parts(clusters_.size());
+    std::vector<std::vector<int>> free_points(standing_clusters_);
+    for (std::size_t c = 0; c < standing_clusters_; ++c) free_points[c] = unexplained_points(clusters_.cluster(c));
+    std::vector<std::vector<std::vector<int>>> parts(standing_clusters_);
     if (parts_.enabled()) {
       std::vector<std::vector<int>> split;  // the clusters large enough to split
       for (const std::vector<int>& points : free_points)
         split.push_back(points.size() >= 2 * options_.min_object_points ? points : std::vector<int>{});
       parts_.find(scene, split, parts);
     }
-    for (std::size_t c = 0; c < clusters_.size(); ++c) create_objects(scene, free_points[c], &parts[c]);
+    for (std::size_t c = 0; c < standing_clusters_; ++c) create_objects(scene, free_points[c], &parts[c]);
     return;
   }
   for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
-  detector_.update(scene.positions, clusters_, frame_.labels, confirmed_);                           // 6
+  detector_.update(scene.positions, clusters_, frame_.labels, confirmed_, standing_clusters_);       // 6
   for (const int c : confirmed_) {
     const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
     if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);

@@ -132,6 +132,7 @@ Eigen::Vector2f Preprocessor::on_table_plane(const Eigen::Vector3f& p) const {
 
 void Preprocessor::keep_clusters_on_table() {
   table_hull_.clear();
+  scene_.standing_clusters = scene_.num_clusters;
   if (!options_.table_prism || !plane_.valid || kept_all_cropped_ || scene_.num_clusters == 0) return;
   // The plane's own basis: any unit vector orthogonal to the normal, and the normal x that.
   const Eigen::Vector3f normal = plane_.coefficients.head<3>();
@@ -227,14 +228,17 @@ void Preprocessor::keep_clusters_on_table() {
     }
     if (!changed) break;
   }
-  // Clusters keep their order (numbered by their first voxel) without the dropped ones.
-  int kept = 0;
-  for (std::size_t c = 0; c < clusters; ++c) cluster_renumber_[c] = cluster_renumber_[c] == 1 ? kept++ : -1;
-  stats_.clusters_off_table = scene_.num_clusters - kept;
+  // The standing clusters first, then the others, each in their order (numbered by their first voxel).
+  int standing = 0;
+  for (std::size_t c = 0; c < clusters; ++c) standing += cluster_renumber_[c] == 1 ? 1 : 0;
+  int next_standing = 0, next_off = standing;
+  for (std::size_t c = 0; c < clusters; ++c)
+    cluster_renumber_[c] = cluster_renumber_[c] == 1 ? next_standing++ : next_off++;
+  stats_.clusters_off_table = scene_.num_clusters - standing;
   for (int& c : scene_.cluster) {
     if (c >= 0) c = cluster_renumber_[static_cast<std::size_t>(c)];
   }
-  scene_.num_clusters = kept;
+  scene_.standing_clusters = standing;
 }
 
 }  // namespace mfot

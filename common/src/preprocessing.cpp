@@ -45,6 +45,7 @@ void SceneCloud::clear() {
   pixel_v.clear();
   cluster.clear();
   num_clusters = 0;
+  standing_clusters = 0;
   plane = TablePlane{};
   voxel_grid = VoxelGrid{};
 }

@@ -105,7 +105,8 @@ void BaselinePipeline::process(const Frame& frame, std::int64_t seq, const std::
   particles_ = 0;
   if (seq == 0) {
     // Objects from the first frame's clusters, exactly as mfot creates them.
-    const ObjectManagerFrame& result = first_frame_objects_.process(scene_.cloud, scene_.cluster, {});
+    const ObjectManagerFrame& result =
+        first_frame_objects_.process(scene_.cloud, scene_.cluster, scene_.standing_clusters, {});
     std::vector<float> ref_xyz;
     std::vector<std::uint8_t> ref_rgb;
     for (const auto& [id, object] : first_frame_objects_.objects()) {

@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
       points.colors = cloud.colors;
       mfot::ObjectManager manager(merger.manager, mfot::make_object_discovery(merger.manager.discovery));
       const auto t_objects = Clock::now();
-      const auto& result = manager.process(points, cloud.cluster, {});
+      const auto& result = manager.process(points, cloud.cluster, cloud.standing_clusters, {});
       const double objects_ms = ms_since(t_objects);
       const auto voxel_of_pixel = preprocessor.pixel_voxel_index();
       predicted.clear();

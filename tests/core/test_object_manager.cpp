@@ -579,6 +579,39 @@ TEST(ObjectManager, AYoungObjectGrowsByPointsConnectedOnlyToIt) {
   EXPECT_EQ(strict.objects().size(), 2u);
 }
 
+TEST(ObjectManager, AClusterOffTheTableCarriesATrackedObjectsLabelButNeverBecomesAnObject) {
+  // Clusters [0, 1) stand on the table; cluster 1 does not (a wall beside the table, then an arm raised beyond its far
+  // edge).
+  ColoredCloud cloud;
+  std::vector<std::int32_t> cluster;
+  add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {8, 8, 4});
+  add_block(cloud, cluster, 1, {0.2f, 0.f, 1.f}, {8, 8, 4});
+  ObjectManagerOptions options;
+  options.new_objects.confirm_frames = 1;
+  ObjectManager manager(options);
+  const auto& first = manager.process(cloud, cluster, 1, {});
+  EXPECT_EQ(first.created, (std::vector<std::int32_t>{1}));
+  for (int t = 0; t < 3; ++t) {
+    const auto& frame = manager.process(cloud, cluster, 1, unchanged(manager));
+    EXPECT_TRUE(frame.created.empty()) << "frame " << t;
+  }
+  ASSERT_EQ(manager.objects().size(), 1u);
+
+  // The object's own cluster reaches off the table: the young object (the arm's tip) labels the rest of it and grows
+  // by it, as it would on the table.
+  const std::size_t tip_points = manager.objects().at(1).model.cloud.size();
+  ColoredCloud raised;
+  std::vector<std::int32_t> raised_cluster;
+  add_block(raised, raised_cluster, 0, {0.2f, 0.f, 1.f}, {8, 8, 4});  // the wall, standing alone: cluster 0
+  add_block(raised, raised_cluster, 1, {-0.2f, 0.f, 1.f}, {8, 8, 4});
+  add_block(raised, raised_cluster, 1, {-0.16f, 0.f, 1.f}, {24, 8, 4});
+  const auto& frame = manager.process(raised, raised_cluster, 0, unchanged(manager));
+  EXPECT_TRUE(frame.created.empty());
+  for (std::size_t i = 0; i < raised.size(); ++i) EXPECT_EQ(frame.labels[i], raised_cluster[i] == 1 ? 1 : 0) << i;
+  EXPECT_GT(manager.objects().at(1).model.cloud.size(), tip_points);
+  EXPECT_THROW(manager.process(raised, raised_cluster, -1, {}), std::invalid_argument);
+}
+
 TEST(ObjectManager, AFullModelThinsOutEvenlyToTakeInANewPart) {
   // A flat tip fills the model; the arm then reaching 25 cm further must still be covered by it,
   // so that tau segments the arm even where the clustering splits it off.

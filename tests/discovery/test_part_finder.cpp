@@ -119,8 +119,9 @@ TEST(PartFinder, ObjectManagerGivesTheSameObjectsForEveryThreadCount) {
       ColoredCloud points;
       points.positions = cloud.positions;
       points.colors = cloud.colors;
-      const std::vector<std::int32_t> labels = one.process(points, cloud.cluster, {}).labels;
-      EXPECT_EQ(three.process(points, cloud.cluster, {}).labels, labels) << "seed " << seed << " frame " << frame;
+      const std::vector<std::int32_t> labels = one.process(points, cloud.cluster, cloud.standing_clusters, {}).labels;
+      EXPECT_EQ(three.process(points, cloud.cluster, cloud.standing_clusters, {}).labels, labels)
+          << "seed " << seed << " frame " << frame;
       ASSERT_EQ(one.objects().size(), three.objects().size());
       for (const auto& [id, object] : one.objects()) {
         ASSERT_TRUE(three.objects().contains(id));

@@ -240,7 +240,7 @@ struct FirstFrame {
     points.colors = cloud.colors;
     ObjectManager manager(merger.manager, make_object_discovery(merger.manager.discovery));
     const auto t0 = std::chrono::steady_clock::now();
-    labels = manager.process(points, cloud.cluster, {}).labels;
+    labels = manager.process(points, cloud.cluster, cloud.standing_clusters, {}).labels;
     ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   Preprocessor preprocessor;

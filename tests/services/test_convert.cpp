@@ -58,6 +58,7 @@ scene_cloud_t make_scene_message(int n) {
   msg.voxel_origin[2] = 0.004f;
   msg.num_points = n;
   msg.num_clusters = 2;
+  msg.num_standing_clusters = 1;
   for (int i = 0; i < n; ++i) {
     msg.x.push_back(0.01f * i);
     msg.y.push_back(-0.01f * i);
@@ -314,6 +315,12 @@ TEST(Convert, InvalidScenesAreRejectedWithTheReason) {
   auto cluster_below_none = valid;
   cluster_below_none.cluster[0] = -2;
   EXPECT_TRUE(scene_from_message(cluster_below_none, scene).has_value());
+  for (const std::int32_t standing : {-1, 3}) {
+    auto bad_standing = valid;
+    bad_standing.num_standing_clusters = standing;
+    EXPECT_EQ(scene_from_message(bad_standing, scene),
+              "num_standing_clusters " + std::to_string(standing) + " outside [0, num_clusters 2]");
+  }
   ASSERT_FALSE(scene_from_message(valid, scene).has_value());
   EXPECT_EQ(scene.cloud.size(), 6u);
 }
@@ -327,7 +334,9 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
     cloud.pixel_v.push_back(static_cast<std::int16_t>(50 + i));
     cloud.cluster.push_back(i < 3 ? 0 : -1);
   }
-  cloud.num_clusters = 1;
+  cloud.num_clusters = 2;
+  cloud.standing_clusters = 1;
+  cloud.cluster[4] = 1;  // a cluster off the table
   cloud.plane.valid = true;
   cloud.plane.coefficients = Eigen::Vector4f(0.f, -1.f, 0.f, 0.8f);
   cloud.voxel_grid = VoxelGrid{.leaf = 0.005f, .corner = Eigen::Vector3f(0.003f, 0.f, 0.0015f)};
@@ -356,6 +365,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   EXPECT_EQ(scene.voxel_grid.corner, cloud.voxel_grid.corner);
   EXPECT_EQ(scene.cloud.positions, cloud.positions);
   EXPECT_EQ(scene.cluster, std::vector<std::int32_t>(cloud.cluster.begin(), cloud.cluster.end()));
+  EXPECT_EQ(scene.standing_clusters, 1);
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(scene.cloud.colors[i].r, cloud.colors[i].r);
   ASSERT_TRUE(scene.view.has_value());
 
@@ -378,6 +388,7 @@ TEST(Convert, APreprocessedSceneTravelsWithItsFramesIdentityAndComesBackTheSame)
   EXPECT_EQ(direct.voxel_grid.corner, scene.voxel_grid.corner);
   EXPECT_EQ(direct.cloud.positions, scene.cloud.positions);
   EXPECT_EQ(direct.cluster, scene.cluster);
+  EXPECT_EQ(direct.standing_clusters, scene.standing_clusters);
   for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(direct.cloud.colors[i].g, scene.cloud.colors[i].g);
   ASSERT_TRUE(direct.view.has_value());
   EXPECT_EQ(direct.view->x_min, scene.view->x_min);

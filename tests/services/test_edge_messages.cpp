@@ -15,6 +15,7 @@ scene_cloud_t scene_message(int n) {
   msg.voxel_size = 0.005f;
   msg.num_points = n;
   msg.num_clusters = 1;
+  msg.num_standing_clusters = 1;
   for (int i = 0; i < n; ++i) {
     msg.x.push_back(0.01f * static_cast<float>(i));
     msg.y.push_back(0.f);

@@ -60,6 +60,7 @@ SceneCloud test_scene(const Frame& f) {
     }
   }
   s.num_clusters = 1;
+  s.standing_clusters = 1;
   return s;
 }
 

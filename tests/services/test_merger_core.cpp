@@ -339,6 +339,7 @@ scene_cloud_t block_scene(std::int64_t seq, float x) {
   msg.voxel_size = 0.005f;
   msg.plane[1] = 1.f;
   msg.num_clusters = 1;
+  msg.num_standing_clusters = 1;
   for (int i = 0; i < 12; ++i) {
     for (int j = 0; j < 12; ++j) {
       for (int k = 0; k < 2; ++k) {
@@ -375,6 +376,7 @@ scene_cloud_t two_block_scene(std::int64_t seq, float x) {
     msg.cluster.push_back(1);
   }
   msg.num_clusters = 2;
+  msg.num_standing_clusters = 2;
   msg.num_points = static_cast<std::int32_t>(msg.x.size());
   return msg;
 }
@@ -735,6 +737,7 @@ TEST_F(MergerCoreTest, ARestartedMergerResumesTheObjectsItsWorkersHoldWithTheirI
     three.cluster.push_back(2);
   }
   three.num_clusters = 3;
+  three.num_standing_clusters = 3;
   three.num_points = static_cast<std::int32_t>(three.x.size());
   for (std::int64_t seq = 2; seq < 8; ++seq) {
     three.frame_seq = seq;

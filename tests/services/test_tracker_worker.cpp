@@ -163,6 +163,7 @@ scene_cloud_t scene_message(std::int64_t seq) {
   msg.fx = msg.fy = 525.f;
   msg.voxel_size = 0.005f;
   msg.num_clusters = 1;
+  msg.num_standing_clusters = 1;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     msg.x.push_back(cloud.positions[i].x());
     msg.y.push_back(cloud.positions[i].y());

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <utility>
 #include <vector>
@@ -92,10 +93,11 @@ class NewObjectDetector {
 
   const NewObjectOptions& options() const { return options_; }
 
-  // points: the scene clustered into clusters; labels: the segmentation of the same points.
+  // points: the scene clustered into clusters; labels: the segmentation of the same points; only clusters
+  // [0, candidate_clusters) may become objects (those standing on the table, SceneCloud::standing_clusters).
   // confirmed receives (cleared first) the indices of clusters that become new objects, ascending.
   void update(std::span<const Eigen::Vector3f> points, const ClusterSet& clusters, std::span<const std::int32_t> labels,
-              std::vector<int>& confirmed);
+              std::vector<int>& confirmed, std::size_t candidate_clusters = std::numeric_limits<std::size_t>::max());
 
   const std::vector<Candidate>& candidates() const { return candidates_; }
   void reset();

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -168,11 +169,12 @@ struct ObjectManagerFrame {
 //   4. retire objects whose support stayed below the minimum for several frames; frames in
 //      which an object is hidden (its model mostly occluded by nearer scene points, or carried
 //      while its tracker held it) do not count; and those gripped away (step 1);
-//   5. unexplained points of clusters that hold segmented points take the label of the nearest
+//   5. unexplained points of clusters that hold segmented points (standing on the table or not: a
+//      gripper's arm raised beyond the table's far edge is still the gripper's) take the label of the nearest
 //      one reachable through unexplained points (breadth first, in waves); young objects grow
 //      their models by the points they gain (thinned evenly over the whole model when it
 //      would exceed max_model_points);
-//   6. create objects from clusters that no object explains: at the first frame every cluster,
+//   6. create objects from clusters standing on the table that no object explains: at the first frame every one,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]) and not
 //      lying mostly inside a held object (held_birth_margin: its own points); with a
 //      discovery (object_discovery.hpp) such a cluster's unexplained points are first split into
@@ -217,10 +219,17 @@ class ObjectManager {
   void set_view(const std::optional<ViewBounds>& view) { view_ = view; }
 
   // scene: the preprocessed scene (camera frame); cluster_of_point: its Euclidean clusters
-  // (-1 = none); estimates: by object id, for this frame (a non-finite one counts as missing).
-  // Throws std::invalid_argument for mismatched sizes or a non-finite scene point.
+  // (-1 = none), of which [0, standing_clusters) stand on the table and may become objects, the others only carry
+  // the labels of objects tracked into them (SceneCloud::standing_clusters); estimates: by object id, for this frame
+  // (a non-finite one counts as missing). Throws std::invalid_argument for mismatched sizes, a non-finite scene point
+  // or a negative standing_clusters.
   const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
-                                    const std::map<std::int32_t, ObjectEstimate>& estimates);
+                                    int standing_clusters, const std::map<std::int32_t, ObjectEstimate>& estimates);
+  // The same with every cluster standing (a scene without a table prism).
+  const ObjectManagerFrame& process(const ColoredCloud& scene, std::span<const std::int32_t> cluster_of_point,
+                                    const std::map<std::int32_t, ObjectEstimate>& estimates) {
+    return process(scene, cluster_of_point, std::numeric_limits<int>::max(), estimates);
+  }
 
   const std::map<std::int32_t, ManagedObject>& objects() const { return objects_; }
   const ObjectManagerFrame& last_frame() const { return frame_; }
@@ -364,6 +373,7 @@ class ObjectManager {
   ObjectManagerFrame frame_;
   SegmentationResult segmentation_;
   ClusterSet clusters_;
+  std::size_t standing_clusters_ = 0;  // clusters_ [0, standing_clusters_) may become objects
   std::vector<SegmentationObject> seg_objects_;
   std::vector<int> confirmed_;
   ColoredCloud segment_;

@@ -24,17 +24,17 @@
 //      core's types): the convex hull of the plane's inliers (an even-stride sample; their largest
 //      connected region on a 2 cm grid, as a wall's foot is an inlier too) is the table's support
 //      polygon; a cluster with less than prism_min_share of its voxels above
-//      it (a wall, shelves or people beside the table) is no cluster (-1): it never becomes an
-//      object, unless it rests on the table: prism_min_share of it lies above the hull of every
-//      inlier region of at least a quarter of the largest's samples (a pile, or an arm reaching
-//      over the table, cuts the visible top into such regions) and either its lowest voxel lies
-//      within 2 cm of the height below which step 3 removed the table (standing on it, not held
-//      above), or at least half of its foot (its voxels within 1 cm of its lowest) is hidden: just
-//      below each in the image lies, first, a nearer voxel of a cluster that stands (an object
-//      behind a pile's front ones; repeated while clusters join), or the image's bottom edge. The margin of step 3
-//      grows with depth as the sensor's noise does: at least plane_margin_sigmas x sigma(z), sigma(z) = base +
-//      quadratic (z - reference)^2 (Nguyen, Izadi, Lovell 2012, Kinect v1), so a far table's noise does not become
-//      objects.
+//      it (a wall, shelves or people beside the table) does not stand: it never becomes an
+//      object (it keeps its points together, so that an object tracked into it, as a gripper's arm
+//      raised beyond the table's far edge, labels the rest of it), unless it rests on the table: prism_min_share of it
+//      lies above the hull of every inlier region of at least a quarter of the largest's samples (a pile, or an arm
+//      reaching over the table, cuts the visible top into such regions) and either its lowest voxel lies within 2 cm of
+//      the height below which step 3 removed the table (standing on it, not held above), or at least half of its foot
+//      (its voxels within 1 cm of its lowest) is hidden: just below each in the image lies, first, a nearer voxel of a
+//      cluster that stands (an object behind a pile's front ones; repeated while clusters join), or the image's bottom
+//      edge. The margin of step 3 grows with depth as the sensor's noise does: at least plane_margin_sigmas x sigma(z),
+//      sigma(z) = base + quadratic (z - reference)^2 (Nguyen, Izadi, Lovell 2012, Kinect v1), so a far table's noise
+//      does not become objects.
 // After warm-up (the first frame of the largest size) nothing is allocated per frame.
 // With threads > 1, steps 1-2, the plane split of step 3, the voxel keys of step 4 and the cell
 // keys and neighbour tests of step 5 run on a ThreadPool: rows, points and cells are split into
@@ -91,8 +91,11 @@ struct SceneCloud {
   std::vector<Rgb8> colors;                // voxel mean colour (rounded)
   std::vector<std::int16_t> pixel_u;       // column of the first pixel (raster order) in the voxel
   std::vector<std::int16_t> pixel_v;       // row of that pixel
-  std::vector<int> cluster;                // in [0, num_clusters), -1 = in no accepted cluster
+  std::vector<int> cluster;                // in [0, num_clusters), -1 = in no cluster (too small)
   int num_clusters = 0;
+  // Clusters [0, standing_clusters) stand on the table (step 6) and may become objects; the others (off the table:
+  // a wall, a person beside it, a gripper's arm beyond its far edge) only carry the labels of objects tracked in them.
+  int standing_clusters = 0;
   TablePlane plane;      // the plane used for this frame (invalid: none removed)
   VoxelGrid voxel_grid;  // step 4's grid of this frame (leaf 0 before the first frame)
 
@@ -233,7 +236,7 @@ struct PreprocessStats {
   std::size_t cropped = 0;      // points inside the crop box
   std::size_t above_plane = 0;  // points surviving table removal
   std::size_t voxels = 0;
-  int clusters_off_table = 0;      // clusters dropped by the table prism (step 6)
+  int clusters_off_table = 0;      // clusters that do not stand on the table (step 6)
   float plane_inlier_share = 0.f;  // of the cropped points, for the plane used
   bool plane_refitted = false;     // a RANSAC fit ran this frame
   double backproject_ms = 0.0;     // steps 1 and 2

@@ -53,7 +53,12 @@ std::optional<std::string> scene_from_message(const scene_cloud_t& msg, Scene& o
     }
     out.view = ViewBounds::of_image(msg.width, msg.height, msg.fx, msg.fy, msg.cx, msg.cy);
   }
+  if (msg.num_standing_clusters < 0 || msg.num_standing_clusters > msg.num_clusters) {
+    return "num_standing_clusters " + std::to_string(msg.num_standing_clusters) + " outside [0, num_clusters " +
+           std::to_string(msg.num_clusters) + "]";
+  }
   out.frame_seq = msg.frame_seq;
+  out.standing_clusters = msg.num_standing_clusters;
   out.voxel_grid = VoxelGrid{.leaf = msg.voxel_size,
                              .corner = Eigen::Vector3f(msg.voxel_origin[0], msg.voxel_origin[1], msg.voxel_origin[2])};
   out.capture_utime = msg.capture_utime;
@@ -111,6 +116,7 @@ void scene_to_message(const SceneCloud& scene, const frame_t& source, scene_clou
   out.v.assign(scene.pixel_v.begin(), scene.pixel_v.end());
   out.cluster.assign(scene.cluster.begin(), scene.cluster.end());
   out.num_clusters = scene.num_clusters;
+  out.num_standing_clusters = scene.standing_clusters;
 }
 
 void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t seq, Scene& out) {
@@ -120,6 +126,7 @@ void scene_from_cloud(const SceneCloud& cloud, const Frame& source, std::int64_t
   out.cloud.positions = cloud.positions;
   out.cloud.colors = cloud.colors;
   out.cluster.assign(cloud.cluster.begin(), cloud.cluster.end());
+  out.standing_clusters = cloud.standing_clusters;
   out.view = ViewBounds::of_image(source.width, source.height, source.fx, source.fy, source.cx, source.cy);
 }
 

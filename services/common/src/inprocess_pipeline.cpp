@@ -55,7 +55,7 @@ const InprocessFrame& InprocessPipeline::process(const Frame& frame, std::int64_
 
   const auto t_merge = Clock::now();
   manager_.set_view(scene.view);
-  const ObjectManagerFrame& result = manager_.process(scene.cloud, scene.cluster, estimates);
+  const ObjectManagerFrame& result = manager_.process(scene.cloud, scene.cluster, scene.standing_clusters, estimates);
   for (const std::int32_t id : result.retired) trackers_.erase(id);
   const ObjectTrackerOptions tracker_options{options_.tracker.likelihood, options_.tracker.filter,
                                              options_.tracker.step};

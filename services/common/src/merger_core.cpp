@@ -244,7 +244,8 @@ void MergerCore::finish_frame(Clock::time_point now) {
   const FrameAssembler::DueFrame due = frames_.take(workers_);
   const std::int64_t seq = due.scene.frame_seq;
   manager_.set_view(due.scene.view);
-  const ObjectManagerFrame& result = manager_.process(due.scene.cloud, due.scene.cluster, due.estimates);
+  const ObjectManagerFrame& result =
+      manager_.process(due.scene.cloud, due.scene.cluster, due.scene.standing_clusters, due.estimates);
   for (const auto& [kept, joined] : result.joined) {
     spdlog::info("object {} joined into object {} (they moved as one rigid body)", joined, kept);
   }

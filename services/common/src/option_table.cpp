@@ -149,7 +149,7 @@ constexpr OptionEntry kTable[] = {
     number("preprocess.plane_margin", "0.01", "0", "0.5", "", "keep points more than this above the plane"),
     number("preprocess.plane_margin_sigmas", "3.0", "0", "10", "", "... or this many depth-noise sigmas where that is more (far away): 1 cm up to 1.45 m, 1.8 cm at 2 m; 0 = fixed"),
     list("preprocess.depth_sigma", "[0.0012, 0.0019, 0.4]", 3, "m", "sensor depth noise sigma(z) = base + quadratic (z - reference)^2 (Nguyen et al. 2012, Kinect v1)"),
-    flag("preprocess.table_prism", "true", "clusters must stand on the table: less than prism_min_share of a cluster's voxels above the convex hull of the plane's inliers and it never becomes an object (walls, shelves, people beside the table), unless it rests on the table between the inlier regions a pile cuts its top into (its lowest voxel at the table, or its foot hidden behind a nearer standing cluster or below the image); false = any cluster (scenes without a table)"),
+    flag("preprocess.table_prism", "true", "clusters must stand on the table: less than prism_min_share of a cluster's voxels above the convex hull of the plane's inliers and it never becomes an object (walls, shelves, people beside the table; it still carries the labels of an object tracked into it, as a gripper raised beyond the table's far edge), unless it rests on the table between the inlier regions a pile cuts its top into (its lowest voxel at the table, or its foot hidden behind a nearer standing cluster or below the image); false = any cluster (scenes without a table)"),
     number("preprocess.prism_min_share", "0.25", "0.001", "1", "", ""),
     integer("preprocess.seed", "502558", "0", "", "", "seed of the RANSAC generator and of the voxel grid's draws"),
     blank(),

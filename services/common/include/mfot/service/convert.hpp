@@ -24,10 +24,11 @@ namespace mfot::service {
 struct Scene {
   std::int64_t frame_seq = 0;
   std::int64_t capture_utime = 0;
-  VoxelGrid voxel_grid;               // the preprocessor's grid of this frame (SceneCloud)
-  ColoredCloud cloud;                 // camera frame
-  std::vector<std::int32_t> cluster;  // per point, -1 = none
-  std::optional<ViewBounds> view;     // the source image's field of view; nullopt: not given (size or fx 0)
+  VoxelGrid voxel_grid;                // the preprocessor's grid of this frame (SceneCloud)
+  ColoredCloud cloud;                  // camera frame
+  std::vector<std::int32_t> cluster;   // per point, -1 = none
+  std::int32_t standing_clusters = 0;  // clusters [0, standing_clusters) may become objects (SceneCloud)
+  std::optional<ViewBounds> view;      // the source image's field of view; nullopt: not given (size or fx 0)
 };
 
 // Returns an error text, or nullopt when the message is valid and `out` is filled.
