@@ -46,6 +46,14 @@ void ObjectManagerOptions::validate() const {
     throw std::invalid_argument("ObjectManagerOptions.held_birth_margin must be in [0, 0.5] m, got " +
                                 std::to_string(held_birth_margin));
   }
+  if (entering_frames < 0 || entering_frames > 1000) {
+    throw std::invalid_argument("ObjectManagerOptions.entering_frames must be in [0, 1000], got " +
+                                std::to_string(entering_frames));
+  }
+  if (!(entering_distance > 0.f && entering_distance <= 0.1f)) {
+    throw std::invalid_argument("ObjectManagerOptions.entering_distance must be in (0, 0.1] m, got " +
+                                std::to_string(entering_distance));
+  }
   if (!(hidden_occluded_share >= 0.f && hidden_occluded_share <= 1.f)) {
     throw std::invalid_argument("ObjectManagerOptions.hidden_occluded_share must be in [0, 1], got " +
                                 std::to_string(hidden_occluded_share));
@@ -90,6 +98,7 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options,
       overlap_joiner_(options.join_split),
       confirmation_(options.discovery),
       carry_(options.carry),
+      entering_hash_(options.entering_distance),
       propagation_(options.propagation_radius, options.propagation_min_seed_share),
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
 
@@ -278,8 +287,17 @@ void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
   for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
   detector_.update(scene.positions, clusters_, frame_.labels, confirmed_, standing_clusters_);       // 6
   for (const int c : confirmed_) {
-    const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
-    if (!inside_held_object(scene, free_points)) create_objects(scene, free_points);
+    std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
+    if (free_points.size() < options_.min_object_points || inside_held_object(scene, free_points)) continue;
+    if (const std::int32_t entered_with = entering_with(scene, free_points); entered_with != 0) {
+      ManagedObject& object = objects_.at(entered_with);
+      object.support += free_points.size();
+      for (const int i : free_points) frame_.labels[static_cast<std::size_t>(i)] = entered_with;
+      grow_model(object, scene, free_points);
+      grown_.push_back(entered_with);
+      continue;
+    }
+    create_objects(scene, free_points);
   }
   if (!grown_.empty()) reidentify_grown_objects(scene);
 }
@@ -297,6 +315,26 @@ std::vector<int> ObjectManager::unexplained_points(std::span<const int> cluster_
     if (frame_.labels[static_cast<std::size_t>(i)] == 0) free_points.push_back(i);
   }
   return free_points;
+}
+
+std::int32_t ObjectManager::entering_with(const ColoredCloud& scene, std::span<const int> free_points) {
+  if (options_.entering_frames <= 0) return 0;
+  bool indexed = false;
+  for (const auto& [id, object] : objects_) {  // ascending ids: the oldest of several
+    if (object.created_frame == 0 || frames_ - object.created_frame > options_.entering_frames || object.stale)
+      continue;
+    if (!indexed) {
+      entering_points_.clear();
+      for (const int i : free_points) entering_points_.push_back(scene.positions[static_cast<std::size_t>(i)]);
+      entering_hash_.build(entering_points_);
+      indexed = true;
+    }
+    const Eigen::Isometry3f to_camera = object.pose.isometry();
+    for (const Eigen::Vector3f& p : object.model.cloud.positions) {
+      if (entering_hash_.nearest(to_camera * p, options_.entering_distance) >= 0) return id;
+    }
+  }
+  return 0;
 }
 
 bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const {

@@ -3,7 +3,9 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <tuple>
 
+#include "expect_invalid_argument.hpp"
 #include "mfot/object_manager.hpp"
 #include "synthetic_object.hpp"
 
@@ -612,6 +614,44 @@ TEST(ObjectManager, AClusterOffTheTableCarriesATrackedObjectsLabelButNeverBecome
   EXPECT_THROW(manager.process(raised, raised_cluster, -1, {}), std::invalid_argument);
 }
 
+TEST(ObjectManager, APartEnteringTheViewInAClusterOfItsOwnWithAnObjectThatJustEnteredIsThatObjects) {
+  // A block at rest from the first frame; then a palm enters (born at frame 1), then a finger 2 cm from it in a
+  // cluster of its own.
+  const auto run = [](int finger_frame, const Eigen::Vector3f& finger_at, int entering_frames) {
+    ObjectManagerOptions options;
+    options.new_objects.confirm_frames = 1;
+    options.entering_frames = entering_frames;
+    options.entering_distance = 0.03f;
+    ObjectManager manager(options);
+    ColoredCloud cloud;
+    std::vector<std::int32_t> cluster;
+    add_block(cloud, cluster, 0, {-0.2f, 0.f, 1.f}, {8, 8, 4});
+    manager.process(cloud, cluster, {});
+    add_block(cloud, cluster, 1, {0.1f, 0.f, 1.f}, {8, 8, 4});  // the palm: x in [0.1, 0.135]
+    manager.process(cloud, cluster, unchanged(manager));
+    EXPECT_EQ(manager.objects().size(), 2u);
+    for (int t = 2; t < finger_frame; ++t) manager.process(cloud, cluster, unchanged(manager));
+    const std::size_t palm_points = manager.objects().at(2).model.cloud.size();
+    const std::size_t before = cloud.size();
+    add_block(cloud, cluster, 2, finger_at, {3, 8, 4});
+    const ObjectManagerFrame frame = manager.process(cloud, cluster, unchanged(manager));
+    std::set<std::int32_t> finger_labels;
+    for (std::size_t i = before; i < cloud.size(); ++i) finger_labels.insert(frame.labels[i]);
+    return std::make_tuple(frame.created, finger_labels, manager.objects().at(2).model.cloud.size() > palm_points);
+  };
+  const Eigen::Vector3f beside_palm(0.155f, 0.f, 1.f);  // 2 cm beyond the palm's edge
+  const auto [created, labels, grown] = run(2, beside_palm, 10);
+  EXPECT_TRUE(created.empty());
+  EXPECT_EQ(labels, (std::set<std::int32_t>{2}));
+  EXPECT_TRUE(grown);
+  // Off, too late after the palm's birth, too far from it, or beside an object that was there from the first frame:
+  // an object of its own.
+  EXPECT_EQ(std::get<0>(run(2, beside_palm, 0)), (std::vector<std::int32_t>{3}));
+  EXPECT_EQ(std::get<0>(run(13, beside_palm, 10)), (std::vector<std::int32_t>{3}));
+  EXPECT_EQ(std::get<0>(run(2, Eigen::Vector3f(0.175f, 0.f, 1.f), 10)), (std::vector<std::int32_t>{3}));
+  EXPECT_EQ(std::get<0>(run(2, Eigen::Vector3f(-0.145f, 0.f, 1.f), 10)), (std::vector<std::int32_t>{3}));
+}
+
 TEST(ObjectManager, AFullModelThinsOutEvenlyToTakeInANewPart) {
   // A flat tip fills the model; the arm then reaching 25 cm further must still be covered by it,
   // so that tau segments the arm even where the clustering splits it off.
@@ -737,6 +777,13 @@ TEST(ObjectManager, RejectsInvalidOptionsAndInputs) {
   ObjectManagerOptions far;
   far.propagation_radius = 0.5f;
   EXPECT_THROW(ObjectManager{far}, std::invalid_argument);
+  for (const auto& [frames, distance] :
+       {std::pair{-1, 0.03f}, std::pair{1001, 0.03f}, std::pair{10, 0.f}, std::pair{10, 0.2f}}) {
+    ObjectManagerOptions entering;
+    entering.entering_frames = frames;
+    entering.entering_distance = distance;
+    test::expect_invalid_argument([&] { ObjectManager{entering}; }, "entering_");
+  }
   ObjectManager manager;
   TwoBlocks scene;
   scene.cluster.pop_back();

@@ -31,6 +31,7 @@
 #include "mfot/reidentification.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
+#include "mfot/spatial_hash.hpp"
 #include "mfot/tracked_object.hpp"
 #include "mfot/types.hpp"
 
@@ -93,6 +94,13 @@ struct ObjectManagerOptions {
   // are the held object's own points, its estimate stale while its tracker holds it (a box turned inside the hand
   // whose claims cover it). [0, 0.5]; 0 = off (the thesis holds nothing).
   float held_birth_margin = 0.0f;
+  // A persisting cluster confirmed within entering_frames of the birth of an object that itself entered the view
+  // (born after the first frame), whose model lies within entering_distance of its unexplained points, is a part of
+  // that object entering with it, in a cluster of its own (a gripper's finger behind its palm, an arm beyond a
+  // hand): the object grows by it instead of a new object being born. Frames [0, 1000], 0 = off (the thesis makes
+  // each cluster an object); metres (0, 0.1].
+  int entering_frames = 0;
+  float entering_distance = 0.03f;
   OcclusionOptions occlusion;
   // How a born cluster becomes objects: the services make the ObjectDiscovery of this with
   // make_object_discovery and hand it to the manager (the manager itself only validates it).
@@ -176,7 +184,9 @@ struct ObjectManagerFrame {
 //      would exceed max_model_points);
 //   6. create objects from clusters standing on the table that no object explains: at the first frame every one,
 //      later only clusters persisting for a few frames (non-contact case, after [KLK14]) and not
-//      lying mostly inside a held object (held_birth_margin: its own points); with a
+//      lying mostly inside a held object (held_birth_margin: its own points); a cluster found within
+//      entering_frames of the birth of an object that entered the view, near its model, grows that object
+//      instead (a part entering with it in a cluster of its own); with a
 //      discovery (object_discovery.hpp) such a cluster's unexplained points are first split into
 //      their locally convex parts, each an object (touching and stacked objects apart), the parts'
 //      boundaries then drawn point by point by colour (part_boundary.hpp); a new
@@ -287,6 +297,8 @@ class ObjectManager {
   // view's histogram and its birth. Returns its record.
   TrackedObject& add_object(ManagedObject object, std::span<const int> points, const ColorHistogram& first_seen,
                             std::uint64_t birth);
+  // Step 6: the object that a persisting cluster's unexplained points enter the view with (entering_frames), or 0.
+  std::int32_t entering_with(const ColoredCloud& scene, std::span<const int> free_points);
   // Step 6: whether most of a cluster's unexplained points lie inside a held object (held_birth_margin).
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster: labels propagated (LabelPropagation), young objects grown by the points they gained.
@@ -374,6 +386,8 @@ class ObjectManager {
   SegmentationResult segmentation_;
   ClusterSet clusters_;
   std::size_t standing_clusters_ = 0;  // clusters_ [0, standing_clusters_) may become objects
+  SpatialHash entering_hash_;          // entering_with's unexplained points
+  std::vector<Eigen::Vector3f> entering_points_;
   std::vector<SegmentationObject> seg_objects_;
   std::vector<int> confirmed_;
   ColoredCloud segment_;

@@ -39,6 +39,8 @@ constexpr float kConfidenceSeenThroughWeight = 2.f;  // confidence x (1 - this x
 constexpr float kHoldMinScoredShare = 0.2f;          // fewer scored points than this share of the model: hold
 constexpr float kReidentifyGrownMinShare = 0.5f;     // a grown object is matched once it holds this of the model
 constexpr float kNewObjectHeldMargin = 0.02f;        // unexplained points this near a held object's box are its own
+constexpr int kEnteringFrames = 10;                  // a cluster found this soon after an object entered the view ...
+constexpr float kEnteringDistance = 0.03f;           // ... and this near it enters with it: a part of it
 constexpr float kReidentifyUnseenRadiusRatio = 2.f;  // a view of an object lies within its diameter (2 x its radius)
 constexpr float kSplitMinDeparture = 0.03f;          // a part splits off once it departed this far
 constexpr float kRefitMinRotationDeg = 0.5f;         // a refit part turned less (and moved less) stays
@@ -181,6 +183,8 @@ MergerConfig load_merger_config(const YAML::Node& root) {
   c.manager.support.min_points = read_option<std::size_t>(s, "retire_min_points");
   c.manager.support.max_frames = read_option<int>(s, "retire_frames");
   c.manager.held_birth_margin = kNewObjectHeldMargin;
+  c.manager.entering_frames = kEnteringFrames;
+  c.manager.entering_distance = kEnteringDistance;
   c.estimate_timeout_ms = read_option<int>(s, "estimate_timeout_ms");
   c.worker_timeout_ms = read_option<int>(s, "worker_timeout_ms");
   c.expected_workers = read_option<int>(s, "expected_workers");
