@@ -287,7 +287,7 @@ void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
   for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
   detector_.update(scene.positions, clusters_, frame_.labels, confirmed_, standing_clusters_);       // 6
   for (const int c : confirmed_) {
-    std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
+    const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
     if (free_points.size() < options_.min_object_points || inside_held_object(scene, free_points)) continue;
     if (const std::int32_t entered_with = entering_with(scene, free_points); entered_with != 0) {
       ManagedObject& object = objects_.at(entered_with);
