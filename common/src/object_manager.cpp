@@ -98,7 +98,6 @@ ObjectManager::ObjectManager(const ObjectManagerOptions& options,
       overlap_joiner_(options.join_split),
       confirmation_(options.discovery),
       carry_(options.carry),
-      entering_hash_(options.entering_distance),
       propagation_(options.propagation_radius, options.propagation_min_seed_share),
       registration_(std::make_unique<ModelRegistration>(options.registration)) {}
 
@@ -319,20 +318,15 @@ std::vector<int> ObjectManager::unexplained_points(std::span<const int> cluster_
 
 std::int32_t ObjectManager::entering_with(const ColoredCloud& scene, std::span<const int> free_points) {
   if (options_.entering_frames <= 0) return 0;
-  bool indexed = false;
+  entering_.cloud.clear();  // the unexplained points, camera frame: a model at the identity pose
+  for (const int i : free_points) {
+    entering_.cloud.push_back(scene.positions[static_cast<std::size_t>(i)], scene.colors[static_cast<std::size_t>(i)]);
+  }
+  const PlacedModel entering{0, &entering_, Pose{}, 0.f};
   for (const auto& [id, object] : objects_) {  // ascending ids: the oldest of several
     if (object.created_frame == 0 || frames_ - object.created_frame > options_.entering_frames || object.stale)
       continue;
-    if (!indexed) {
-      entering_points_.clear();
-      for (const int i : free_points) entering_points_.push_back(scene.positions[static_cast<std::size_t>(i)]);
-      entering_hash_.build(entering_points_);
-      indexed = true;
-    }
-    const Eigen::Isometry3f to_camera = object.pose.isometry();
-    for (const Eigen::Vector3f& p : object.model.cloud.positions) {
-      if (entering_hash_.nearest(to_camera * p, options_.entering_distance) >= 0) return id;
-    }
+    if (contact_.models_touch(entering, placed(id), options_.entering_distance)) return id;
   }
   return 0;
 }

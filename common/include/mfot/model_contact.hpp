@@ -1,7 +1,8 @@
 #pragma once
 // Whether two objects touch: some point of one's model, placed at its pose, lies within a distance of
 // some point of the other's. The contact test behind joining rigid parts (RigidPartJoin), carrying hidden
-// objects (CarryMonitor) and choosing companions (companion_motion.hpp); not a step of the thesis, whose
+// objects (CarryMonitor), choosing companions (companion_motion.hpp) and parts entering the view with an object
+// (ObjectManager step 6); not a step of the thesis, whose
 // objects never interact. Steps of touching():
 //   1. a pair already tested this frame at this distance gives the same answer (the memo; new_frame() clears it);
 //   2. bounding spheres: objects whose origins lie farther apart than their radii and the distance do not touch

@@ -31,7 +31,6 @@
 #include "mfot/reidentification.hpp"
 #include "mfot/segmentation.hpp"
 #include "mfot/smr_feature.hpp"
-#include "mfot/spatial_hash.hpp"
 #include "mfot/tracked_object.hpp"
 #include "mfot/types.hpp"
 
@@ -386,8 +385,7 @@ class ObjectManager {
   SegmentationResult segmentation_;
   ClusterSet clusters_;
   std::size_t standing_clusters_ = 0;  // clusters_ [0, standing_clusters_) may become objects
-  SpatialHash entering_hash_;          // entering_with's unexplained points
-  std::vector<Eigen::Vector3f> entering_points_;
+  ObjectModel entering_;               // entering_with's unexplained points (camera frame) for the contact test
   std::vector<SegmentationObject> seg_objects_;
   std::vector<int> confirmed_;
   ColoredCloud segment_;
