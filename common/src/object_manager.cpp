@@ -286,14 +286,11 @@ void ObjectManager::propagate_and_create(const ColoredCloud& scene) {
   for (std::size_t c = 0; c < clusters_.size(); ++c) propagate_labels(scene, clusters_.cluster(c));  // 5
   detector_.update(scene.positions, clusters_, frame_.labels, confirmed_, standing_clusters_);       // 6
   for (const int c : confirmed_) {
-    const std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
+    std::vector<int> free_points = unexplained_points(clusters_.cluster(static_cast<std::size_t>(c)));
     if (free_points.size() < options_.min_object_points || inside_held_object(scene, free_points)) continue;
     if (const std::int32_t entered_with = entering_with(scene, free_points); entered_with != 0) {
-      ManagedObject& object = objects_.at(entered_with);
-      object.support += free_points.size();
       for (const int i : free_points) frame_.labels[static_cast<std::size_t>(i)] = entered_with;
-      grow_model(object, scene, free_points);
-      grown_.push_back(entered_with);
+      gain_points(entered_with, scene, free_points);
       continue;
     }
     create_objects(scene, free_points);
@@ -353,16 +350,18 @@ bool ObjectManager::inside_held_object(const ColoredCloud& scene, std::span<cons
 
 void ObjectManager::propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points) {
   propagation_.propagate(scene.positions, cluster_points, frame_.labels, gained_);
-  for (auto& [id, points] : gained_) {
-    ManagedObject& object = objects_.at(id);
-    object.support += points.size();
-    // A young object grows by a part entering the view, not by a few fringe points.
-    const bool young = frames_ - object.created_frame < options_.growth_frames;
-    if (young && points.size() >= options_.min_object_points) {
-      std::sort(points.begin(), points.end());
-      grow_model(object, scene, points);
-      grown_.push_back(id);
-    }
+  for (auto& [id, points] : gained_) gain_points(id, scene, points);
+}
+
+void ObjectManager::gain_points(std::int32_t id, const ColoredCloud& scene, std::vector<int>& points) {
+  ManagedObject& object = objects_.at(id);
+  object.support += points.size();
+  // A young object grows by a part entering the view, not by a few fringe points.
+  const bool young = frames_ - object.created_frame < options_.growth_frames;
+  if (young && points.size() >= options_.min_object_points) {
+    std::sort(points.begin(), points.end());
+    grow_model(object, scene, points);
+    grown_.push_back(id);
   }
 }
 

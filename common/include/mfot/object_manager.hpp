@@ -302,6 +302,9 @@ class ObjectManager {
   bool inside_held_object(const ColoredCloud& scene, std::span<const int> free_points) const;
   // Step 5 for one cluster: labels propagated (LabelPropagation), young objects grown by the points they gained.
   void propagate_labels(const ColoredCloud& scene, std::span<const int> cluster_points);
+  // Steps 5 and 6: object id gained `points` (labelled with it, sorted here): its support, and a young object's model
+  // grown by them when they are a part (min_object_points), not a few fringe points.
+  void gain_points(std::int32_t id, const ColoredCloud& scene, std::vector<int>& points);
   void grow_model(ManagedObject& object, const ColoredCloud& scene, std::span<const int> gained);
   // Step 3's re-fit of grown parts (PartRefit) of every object with a new estimate, on its segmented points.
   void refit_parts(const ColoredCloud& scene);
