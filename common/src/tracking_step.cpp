@@ -72,6 +72,12 @@ void TrackingStepOptions::validate() const {
   require_in_range("TrackingStepOptions", "companion_turn_min", companion_turn_min, 0.0, std::numbers::pi, false);
   require_in_range("TrackingStepOptions", "companion_turn_min_cosine", companion_turn_min_cosine, -1.0, 1.0, false);
   require_in_range("TrackingStepOptions", "companion_turn_max_kept", companion_turn_max_kept, 0.0, 1.0, false);
+  require_in_range("TrackingStepOptions", "predicted_start_min_turn", predicted_start_min_turn, 0.0, std::numbers::pi,
+                   false);
+  require_in_range("TrackingStepOptions", "predicted_start_min_shift", predicted_start_min_shift, 0.0, 1.0, false);
+  needs_occlusion_test(predicted_start_min_turn > 0.f || predicted_start_min_shift > 0.f,
+                       "predicted_start_min_turn or predicted_start_min_shift",
+                       "the charge's seen-through share is measured there");
   if (!(last_pose_check_points >= 3 && last_pose_check_points <= 1000000)) {
     throw std::invalid_argument("TrackingStepOptions.last_pose_check_points must be in [3, 1000000], got " +
                                 std::to_string(last_pose_check_points));
@@ -101,6 +107,7 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
                                        Likelihood& likelihood) {
   TrackingStepResult result;
   const Pose last = filter.estimate();
+  const PoseVector last_motion = filter.velocity();  // dX before this step: the prediction of step 5f
   const bool tests_occlusion = options_.hold_occluded_share > 0.f;
   if (tests_occlusion) {
     occlusion_.set_model(model.cloud.positions, last);  // once for both questions (steps 1 and 3)
@@ -155,6 +162,15 @@ TrackingStepResult TrackingStep::track(const ColoredCloud& scene, const ObjectMo
       result.estimate = filter.replace_estimate(*kept);
       (result.companion ? result.companion_pose_kept : result.last_pose_kept) = true;
     }
+  } else if (options_.predicted_start_min_turn > 0.f || options_.predicted_start_min_shift > 0.f) {
+    // 5f: the constant-velocity prediction, where it lies apart from the estimate.
+    const Pose predicted = apply_increment(last, last_motion);
+    if (lies_apart(predicted, result.estimate)) {
+      if (const std::optional<Pose> kept = better_start(model, predicted, result.estimate)) {
+        result.estimate = filter.replace_estimate(*kept);
+        result.predicted_start_kept = true;
+      }
+    }
   }
   // 5e: the filter's turn, where the companion turned the same way and the refinement turned it back.
   if (companion != nullptr && options_.companion_turn_min > 0.f &&
@@ -190,6 +206,13 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
   };
   if (unexplained(start) < unexplained(estimate)) return start;
   return std::nullopt;
+}
+
+bool TrackingStep::lies_apart(const Pose& a, const Pose& b) const {
+  const float shift = (a.translation - b.translation).norm();
+  const float turn = Eigen::AngleAxisf(a.rotation * b.rotation.conjugate()).angle();
+  return (options_.predicted_start_min_shift > 0.f && shift >= options_.predicted_start_min_shift) ||
+         (options_.predicted_start_min_turn > 0.f && turn >= options_.predicted_start_min_turn);
 }
 
 bool TrackingStep::keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined,

@@ -579,6 +579,52 @@ TEST(TrackingStep, TheLastPoseCheckFollowsAMovingObject) {
   }
 }
 
+// Step 5f: a box in full view turning 5 degrees and sliding 3 mm a frame; the likelihood's mode follows it for four
+// frames, then stays behind (as a striped object's score slips a stripe at a fast turn), and ICP from the filter's
+// estimate cannot close the growing gap. With the step, the prediction from the motion so far explains the box's
+// points better and is kept every frame after, and the estimate keeps up; with it off, or its thresholds above a
+// frame's motion, the estimate falls behind.
+TEST(TrackingStep, ThePredictionAsASecondStartKeepsUpWithAnObjectTheFilterLags) {
+  const HandOverBox setup;
+  const Eigen::AlignedBox3f box = model_bounding_box(setup.model);
+  const auto truth_at = [&](int frame) {
+    Pose pose = setup.truth;
+    pose.translation.x() += 0.003f * static_cast<float>(frame);
+    pose.rotation = (Eigen::Quaternionf(
+                         Eigen::AngleAxisf(test::radians(5.f * static_cast<float>(frame)), Eigen::Vector3f::UnitY())) *
+                     pose.rotation)
+                        .normalized();
+    return pose;
+  };
+  const auto run = [&](float min_turn_deg, float min_shift) {
+    TrackingStepOptions o = occlusion_aware();  // steps 5c-5d off
+    o.icp.iterations = 10;
+    o.predicted_start_min_turn = test::radians(min_turn_deg);
+    o.predicted_start_min_shift = min_shift;
+    TrackingStep step(o);
+    ParticleFilter filter(filter_options());
+    filter.reset(setup.truth);
+    int kept = 0;
+    float error_deg = 0.f;
+    for (int frame = 1; frame <= 12; ++frame) {
+      ModeAt likelihood(truth_at(std::min(frame, 4)));
+      const ColoredCloud scene = test::transformed(test::make_test_object(0.5f), truth_at(frame));
+      const TrackingStepResult r = step.track(scene, setup.model, box, filter, likelihood);
+      kept += r.predicted_start_kept ? 1 : 0;
+      error_deg = test::degrees(test::rotation_error(r.estimate, truth_at(frame)));
+    }
+    return std::pair(kept, error_deg);
+  };
+  const auto [kept, error_deg] = run(1.f, 0.002f);
+  EXPECT_GE(kept, 8);
+  EXPECT_LT(error_deg, 1.f);
+  for (const auto& [min_turn_deg, min_shift] : {std::pair(0.f, 0.f), std::pair(20.f, 0.f), std::pair(0.f, 0.05f)}) {
+    const auto [none, behind_deg] = run(min_turn_deg, min_shift);
+    EXPECT_EQ(none, 0) << min_turn_deg << " deg, " << min_shift << " m";
+    EXPECT_GT(behind_deg, 20.f) << min_turn_deg << " deg, " << min_shift << " m";
+  }
+}
+
 // Step 5d: the box under the hand has turned 8 degrees since the last frame, as the hand that grips it did, while
 // the filter's mode stays where it was (in `rotate`, its refinement pinned by what little of the box shows). With
 // the check, the last estimate moved by the companion's motion explains the view better and is kept; not with the
@@ -781,6 +827,16 @@ TEST(TrackingStep, InvalidOptionsThrow) {
   expect_invalid_with(o, "TrackingStepOptions.companion_turn_max_kept must be in [0");
   o.companion_turn_max_kept = 0.3f;
   EXPECT_NO_THROW(TrackingStep{o});
+  o = occlusion_aware();
+  o.predicted_start_min_turn = 3.2f;
+  expect_invalid_with(o, "TrackingStepOptions.predicted_start_min_turn must be in [0");
+  o.predicted_start_min_turn = 0.f;
+  o.predicted_start_min_shift = std::numeric_limits<float>::quiet_NaN();
+  expect_invalid_with(o, "TrackingStepOptions.predicted_start_min_shift must be in [0");
+  o.predicted_start_min_shift = 0.002f;
+  EXPECT_NO_THROW(TrackingStep{o});
+  o.hold_occluded_share = 0.f;  // the charge's seen-through share is not measured
+  expect_invalid_with(o, "TrackingStepOptions.predicted_start_min_turn or predicted_start_min_shift needs");
 }
 
 }  // namespace

@@ -114,6 +114,16 @@ struct TrackingStepOptions {
   float companion_turn_min = 0.f;
   float companion_turn_min_cosine = 0.8f;
   float companion_turn_max_kept = 0.3f;
+  // The constant-velocity prediction as a second start (step 5f; departure from the thesis). In a frame where steps
+  // 5c-5d did not run and the prediction (the last estimate moved by the last dX, 2.13) lies at least
+  // predicted_start_min_turn or predicted_start_min_shift from the refined estimate, the prediction is refined too
+  // and replaces the estimate when its charge (the last pose check's, on last_pose_check_points) is lower. The
+  // filter's 100 particles spread about a turn's prediction lag an object that turns several degrees a frame (a
+  // striped bottle spun about its axis slips a stripe), and ICP from a lagging estimate pairs each stripe with its
+  // neighbour; from the prediction it pairs it with itself. Radians [0, pi] and metres [0, 1]; both 0 = off (the
+  // thesis); > 0 needs hold_occluded_share > 0 (the charge's seen-through share).
+  float predicted_start_min_turn = 0.f;
+  float predicted_start_min_shift = 0.f;
   void validate() const;  // throws std::invalid_argument naming the field
 };
 
@@ -124,13 +134,14 @@ struct TrackingStepResult {
   float occluded_share = 0.f;         // of the model at the last estimate (0 when not tested)
   std::size_t hypothesis_points = 0;  // scored points (after removing occluders)
   std::size_t occluders_removed = 0;
-  std::size_t claimed_removed = 0;   // left out as claimed by other objects
-  bool isolated = false;             // stepped with isolated_motion (no other object near)
-  bool icp_refined = false;          // the estimate was refined on the model's surface (icp)
-  bool companion = false;            // stepped with a companion's motion (set_companion_motion)
-  bool last_pose_kept = false;       // the refined last estimate replaced the filter's (last_pose_check_*)
-  bool companion_pose_kept = false;  // the refined companion's pose replaced the filter's (step 5d)
-  bool companion_turn_kept = false;  // the filter's turn, agreeing with the companion's, was kept (companion_turn_min)
+  std::size_t claimed_removed = 0;    // left out as claimed by other objects
+  bool isolated = false;              // stepped with isolated_motion (no other object near)
+  bool icp_refined = false;           // the estimate was refined on the model's surface (icp)
+  bool companion = false;             // stepped with a companion's motion (set_companion_motion)
+  bool last_pose_kept = false;        // the refined last estimate replaced the filter's (last_pose_check_*)
+  bool companion_pose_kept = false;   // the refined companion's pose replaced the filter's (step 5d)
+  bool companion_turn_kept = false;   // the filter's turn, agreeing with the companion's, was kept (companion_turn_min)
+  bool predicted_start_kept = false;  // the refined constant-velocity prediction replaced the estimate (step 5f)
   // EstimateFit of the new estimate on the scored points, in [0, 1] (0 when held).
   float fit = 0.f;
   // Share of the model the view sees through at the new estimate, on an even sample of EstimateFit::kScoredPoints
@@ -166,6 +177,9 @@ struct TrackingStepResult {
 //  5e. when companion_turn_min > 0 and a companion's motion is set that turns at least that much: where the filter's
 //      step turned the estimate at least as much, about an axis near the companion's turn, and the refined estimate
 //      kept less than companion_turn_max_kept of that turn, the estimate takes the filter's rotation;
+//  5f. when predicted_start_min_turn or predicted_start_min_shift > 0 and steps 5c-5d did not run: where the
+//      constant-velocity prediction lies that far from the estimate, refine it too and keep it instead when it explains
+//      the view better (as 5c);
 //  6. measure the confidence of the new estimate: its fit on the same points (EstimateFit), lowered by the
 //     share of its model the view sees through (confidence_seen_through_weight).
 // One per object: it counts the object's holds. Deterministic: no random draws of its own (the
@@ -213,10 +227,12 @@ class TrackingStep {
   EstimateFit fit_;
   IcpRefinement icp_;
   IcpRefinement
-      last_pose_icp_;  // steps 5c and 5d: icp's settings on at most last_pose_check_points, its own model hash
-  // Steps 5c and 5d: start refined (icp's settings on last_pose_check_points) when it explains the view better than
+      last_pose_icp_;  // steps 5c, 5d and 5f: icp's settings on at most last_pose_check_points, its own model hash
+  // Steps 5c, 5d and 5f: start refined (icp's settings on last_pose_check_points) when it explains the view better than
   // estimate, else nullopt.
   std::optional<Pose> better_start(const ObjectModel& model, const Pose& start, const Pose& estimate);
+  // Step 5f: whether a and b lie at least predicted_start_min_shift or predicted_start_min_turn apart (each where > 0).
+  bool lies_apart(const Pose& a, const Pose& b) const;
   // Step 5e: whether the companion and the filter's estimate (from last) both turned at least companion_turn_min, about
   // axes within acos(companion_turn_min_cosine), and the refined estimate kept less than companion_turn_max_kept of it.
   bool keeps_filter_turn(const Pose& last, const Pose& filtered, const Pose& refined,

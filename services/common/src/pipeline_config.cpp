@@ -65,6 +65,8 @@ constexpr float kFollowReplacedEstimate = 1.f;        // the particle set moves 
 constexpr int kIcpMaxPoints = 2000;                   // ICP on at most this many scored points
 constexpr float kLastPoseCheckOccludedShare = 0.15f;  // this share occluded: the last (or companion's) pose checked
 constexpr float kCompanionTurnMinDeg = 0.7f;          // a companion turning this much: step 5e
+constexpr float kPredictedStartMinTurnDeg = 1.f;      // the prediction this far from the estimate: step 5f ...
+constexpr float kPredictedStartMinShift = 0.002f;     // ... or this far
 
 }  // namespace
 
@@ -138,6 +140,8 @@ TrackerConfig load_tracker_config(const YAML::Node& root) {
   c.step.icp.color_weight = kIcpColorWeight;
   c.step.last_pose_check_occluded_share = kLastPoseCheckOccludedShare;
   c.step.companion_turn_min = kCompanionTurnMinDeg * kRadiansPerDegree;
+  c.step.predicted_start_min_turn = kPredictedStartMinTurnDeg * kRadiansPerDegree;
+  c.step.predicted_start_min_shift = kPredictedStartMinShift;
   c.heartbeat_ms = read_option<int>(s, "heartbeat_ms");
   c.merger_timeout_ms = read_option<int>(s, "merger_timeout_ms");
   c.scenes.max_scenes = read_option<std::size_t>(s, "queue_scenes");
