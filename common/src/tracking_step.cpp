@@ -210,7 +210,7 @@ std::optional<Pose> TrackingStep::better_start(const ObjectModel& model, const P
 
 bool TrackingStep::lies_apart(const Pose& a, const Pose& b) const {
   const float shift = (a.translation - b.translation).norm();
-  const float turn = Eigen::AngleAxisf(a.rotation * b.rotation.conjugate()).angle();
+  const float turn = a.rotation.angularDistance(b.rotation);
   return (options_.predicted_start_min_shift > 0.f && shift >= options_.predicted_start_min_shift) ||
          (options_.predicted_start_min_turn > 0.f && turn >= options_.predicted_start_min_turn);
 }
